@@ -1,0 +1,504 @@
+"""All parameters of one flight, as one typed dataclass tree loaded from YAML.
+
+Every quantity is SI (m, s, W, V, Ω, Ah for capacity as in the papers, rad internally); angles in
+the YAML are degrees only where the key's name ends in ``_deg``. Defaults are the reference
+numbers of the authors' simulator (DESIGN.md section 3, paper 003 Sec. V).
+
+Load with :func:`LoadScenario` (``filename=`` or ``data=``). A misspelt key, a wrong type or a
+value outside its physical range raises :class:`ScenarioError` whose message names the key.
+"""
+
+import dataclasses as dc
+import math
+import typing
+from pathlib import Path
+
+__all__ = [
+    "BatteryFault",
+    "BatteryParams",
+    "ComputationParams",
+    "CoverageParams",
+    "EnergyModelParams",
+    "EstimatorParams",
+    "GuidanceParams",
+    "LoadScenario",
+    "MotionPowerParams",
+    "PlannerParams",
+    "Scenario",
+    "ScenarioError",
+    "SensorParams",
+    "SimulationParams",
+    "VehicleParams",
+    "WindParams",
+]
+
+
+class ScenarioError(ValueError):
+    """A scenario (YAML or dataclass) has a bad key, type or value; the message names the key."""
+
+
+# -- validation helpers -------------------------------------------------------------------------
+
+
+def _check(cond: bool, key: str, message: str) -> None:
+    if not cond:
+        raise ScenarioError(f"{key}: {message}")
+
+
+def _finite(value, key: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"{key}: expected a number, got {value!r}") from None
+    _check(math.isfinite(v), key, f"must be finite, got {value!r}")
+    return v
+
+
+def _positive(value, key: str) -> None:
+    v = _finite(value, key)
+    _check(v > 0.0, key, f"must be > 0, got {v:g}")
+
+
+def _nonnegative(value, key: str) -> None:
+    v = _finite(value, key)
+    _check(v >= 0.0, key, f"must be >= 0, got {v:g}")
+
+
+def _in_range(value, key: str, lo: float, hi: float) -> None:
+    v = _finite(value, key)
+    _check(lo <= v <= hi, key, f"must be in [{lo:g}, {hi:g}], got {v:g}")
+
+
+def _vector(value, key: str, size: int | None = None) -> list[float]:
+    values = [_finite(v, f"{key}[{i}]") for i, v in enumerate(value)]
+    if size is not None:
+        _check(len(values) == size, key, f"must have {size} entries, got {len(values)}")
+    return values
+
+
+def _bounds(value, key: str) -> None:
+    lo, hi = _vector(value, key, 2)
+    _check(lo <= hi, key, f"min must be <= max, got [{lo:g}, {hi:g}]")
+
+
+# -- the tree -----------------------------------------------------------------------------------
+
+
+@dc.dataclass
+class MotionPowerParams:
+    """Propulsion (motion) power of the fixed-wing aircraft, in W.
+
+    Load-factor model: P_m = level_power · (1 − induced_fraction + induced_fraction · n²), with
+    n = sqrt(1 + (v_a ψ̇ / g)²) the load factor of a coordinated turn at heading rate ψ̇ [rad/s].
+    """
+
+    level_power: float = 21.0
+    """Straight-and-level motion power at the airspeed [W]."""
+    induced_fraction: float = 0.5
+    """Share of the level power that scales with n² (induced drag) [-], in [0, 1]."""
+
+    def Validate(self, key: str = "vehicle.motion_power") -> None:
+        _positive(self.level_power, f"{key}.level_power")
+        _in_range(self.induced_fraction, f"{key}.induced_fraction", 0.0, 1.0)
+
+
+@dc.dataclass
+class VehicleParams:
+    """Fixed-wing unicycle ṗ = v_a [cos ψ, sin ψ] + w, ψ̇ = u with |u| ≤ g tan(φ_max) / v_a."""
+
+    airspeed: float = 15.0
+    """v_a, constant airspeed [m/s]."""
+    max_bank_angle_deg: float = 45.0
+    """φ_max, bank-angle limit that bounds the heading rate [deg], in (0, 80]."""
+    initial_position: list[float] = dc.field(default_factory=lambda: [-100.0, 220.0])
+    """p(0) = (x, y) [m]."""
+    initial_heading_deg: float = 270.0
+    """ψ(0), from +x counter-clockwise [deg]."""
+    motion_power: MotionPowerParams = dc.field(default_factory=MotionPowerParams)
+
+    def Validate(self, key: str = "vehicle") -> None:
+        _positive(self.airspeed, f"{key}.airspeed")
+        _in_range(self.max_bank_angle_deg, f"{key}.max_bank_angle_deg", 1e-3, 80.0)
+        _vector(self.initial_position, f"{key}.initial_position", 2)
+        _finite(self.initial_heading_deg, f"{key}.initial_heading_deg")
+        self.motion_power.Validate(f"{key}.motion_power")
+
+
+@dc.dataclass
+class WindParams:
+    """Constant wind w = speed · [cos θ_w, sin θ_w]; θ_w is where the wind blows *towards*."""
+
+    speed: float = 5.0
+    """‖w‖ [m/s], must be below the airspeed."""
+    direction_deg: float = 0.0
+    """θ_w, from +x counter-clockwise [deg]; 0 blows towards +x, 90 towards +y."""
+
+    def Validate(self, key: str = "wind") -> None:
+        _nonnegative(self.speed, f"{key}.speed")
+        _finite(self.direction_deg, f"{key}.direction_deg")
+
+
+@dc.dataclass
+class CoverageParams:
+    """Zamboni-like coverage of a convex polygon (paper 003 Sec. IV-A, Alg. 1)."""
+
+    polygon: list[list[float]] = dc.field(
+        default_factory=lambda: [[-120.0, 11.0], [-120.0, 146.0], [180.0, 146.0], [180.0, 11.0]]
+    )
+    """Vertices v of the convex survey area [m], any order."""
+    line_edge: int = 0
+    """Index i of the polygon edge (v_i, v_{i+1}) the survey lines are parallel to."""
+    swath_spacing: float = 10.0
+    """x_d, line spacing at c1 = 0 [m]."""
+    turning_radius: float = 70.0
+    """r, ideal turning radius [m]; r1 = r + x_d/2 and r2(c1) = sqrt(r² + c1)."""
+    min_turning_radius: float = 62.449979983983983
+    """r_min [m]; bounds the path parameter: c1 ∈ [r_min² − r², 0] (sqrt(3900) → [−1000, 0])."""
+    plan_file: str = ""
+    """Optional authors'-format ``.pln`` plan to fly instead of generating one ("" = generate)."""
+
+    def Validate(self, key: str = "coverage") -> None:
+        _check(len(self.polygon) >= 3, f"{key}.polygon", "needs at least 3 vertices")
+        for i, v in enumerate(self.polygon):
+            _vector(v, f"{key}.polygon[{i}]", 2)
+        _in_range(self.line_edge, f"{key}.line_edge", 0, len(self.polygon) - 1)
+        _positive(self.swath_spacing, f"{key}.swath_spacing")
+        _positive(self.turning_radius, f"{key}.turning_radius")
+        _positive(self.min_turning_radius, f"{key}.min_turning_radius")
+        _check(
+            self.min_turning_radius <= self.turning_radius,
+            f"{key}.min_turning_radius",
+            f"r_min = {self.min_turning_radius:g} must be <= turning_radius r = "
+            f"{self.turning_radius:g}",
+        )
+
+
+@dc.dataclass
+class GuidanceParams:
+    """Guiding vector field gains (paper 001 Eq. 8) for unit-gradient path functions."""
+
+    k_e: float = 0.02
+    """Convergence gain of the field on φ [1/m] (φ normalised so that ‖∇φ‖ = 1 on the path)."""
+    k_d: float = 1.0
+    """Course-alignment gain [rad/s]."""
+
+    def Validate(self, key: str = "guidance") -> None:
+        _positive(self.k_e, f"{key}.k_e")
+        _positive(self.k_d, f"{key}.k_d")
+
+
+@dc.dataclass
+class ComputationParams:
+    """Computation power g(c2) from a measured powprofiler table (paper 003 Sec. III-B)."""
+
+    table: str = "pednet_jetson_nano"
+    """A packaged table name (``pednet_jetson_nano``, ``two_parameters``) or a CSV path."""
+    initial_parameters: list[float] = dc.field(default_factory=lambda: [10.0])
+    """c2(0), one entry per computation parameter (σ of them) [table units, e.g. fps]."""
+    integer: bool = True
+    """Parameters take only the table's grid values (fps); the planner maps relaxed values back."""
+
+    def Validate(self, key: str = "computation") -> None:
+        _check(bool(self.table), f"{key}.table", "must name a table")
+        _check(len(self.initial_parameters) >= 1, f"{key}.initial_parameters", "needs >= 1 entry")
+        _vector(self.initial_parameters, f"{key}.initial_parameters")
+
+
+@dc.dataclass
+class EnergyModelParams:
+    """Periodic energy model (paper 003 Eqs. 3–12), scaled form y = C q with q in W."""
+
+    order: int = 3
+    """r, Fourier order (state size m = 2r + 1), in [0, 20]."""
+    initial_period: float = 46.0
+    """T, first guess of the period [s] until one is measured in flight."""
+    initial_coefficients: list[float] = dc.field(default_factory=list)
+    """q(0) [W] (m entries) or empty: α0 = initial_mean_power, harmonics zero."""
+    initial_mean_power: float = 30.0
+    """α0(0) [W] used when initial_coefficients is empty."""
+
+    def Validate(self, key: str = "energy_model") -> None:
+        _check(
+            isinstance(self.order, int) and 0 <= self.order <= 20,
+            f"{key}.order",
+            f"must be an integer in [0, 20], got {self.order!r}",
+        )
+        _positive(self.initial_period, f"{key}.initial_period")
+        if self.initial_coefficients:
+            _vector(self.initial_coefficients, f"{key}.initial_coefficients", 2 * self.order + 1)
+        _nonnegative(self.initial_mean_power, f"{key}.initial_mean_power")
+
+
+@dc.dataclass
+class BatteryFault:
+    """A sudden loss of state of charge at a given time."""
+
+    time: float = 0.0
+    """When [s]."""
+    soc_drop: float = 0.0
+    """How much SoC is lost [-], in (0, 1] (0.06 is −6 %)."""
+
+
+@dc.dataclass
+class BatteryParams:
+    """Rint equivalent circuit (paper 003 Lemma III.3): ḃ = −k_b I(y) / Q_c."""
+
+    voltage: float = 14.8
+    """V, internal (open-circuit) voltage [V]."""
+    internal_resistance: float = 0.0012
+    """R_r [Ω]."""
+    capacity: float = 3.2
+    """Q_c, nominal capacity [Ah]."""
+    k_b: float = 0.00183
+    """Battery coefficient [-]; absorbs the Ah-to-seconds conversion of the reference numbers."""
+    initial_soc: float = 1.0
+    """b(0) [-], in (0, 1]."""
+    reserve_soc: float = 0.30
+    """Reserve: the flight fails if b reaches it before the survey ends [-], in [0, 1)."""
+    faults: list[BatteryFault] = dc.field(default_factory=list)
+    """Sudden SoC drops (plan i: −6 % at 93 s, −9 % at 270 s)."""
+
+    def Validate(self, key: str = "battery") -> None:
+        _positive(self.voltage, f"{key}.voltage")
+        _positive(self.internal_resistance, f"{key}.internal_resistance")
+        _positive(self.capacity, f"{key}.capacity")
+        _positive(self.k_b, f"{key}.k_b")
+        _in_range(self.initial_soc, f"{key}.initial_soc", 1e-9, 1.0)
+        _in_range(self.reserve_soc, f"{key}.reserve_soc", 0.0, 1.0 - 1e-9)
+        for i, f in enumerate(self.faults):
+            _nonnegative(f.time, f"{key}.faults[{i}].time")
+            _in_range(f.soc_drop, f"{key}.faults[{i}].soc_drop", 1e-12, 1.0)
+
+
+@dc.dataclass
+class SensorParams:
+    """Power sensor Υ = P_motion + P_computation + noise, sampled periodically."""
+
+    rate: float = 100.0
+    """Sampling rate [Hz]."""
+    noise_std: float = 0.5
+    """Standard deviation of the additive Gaussian noise [W]."""
+    dropout_probability: float = 0.0
+    """Probability that a sample is lost (output NaN) [-], in [0, 1)."""
+    seed: int = 0
+    """Seed of the noise and dropout generator."""
+
+    def Validate(self, key: str = "sensor") -> None:
+        _positive(self.rate, f"{key}.rate")
+        _nonnegative(self.noise_std, f"{key}.noise_std")
+        _in_range(self.dropout_probability, f"{key}.dropout_probability", 0.0, 1.0 - 1e-9)
+
+
+@dc.dataclass
+class EstimatorParams:
+    """Discrete Kalman filter on q (paper 003 Alg. 2 l. 28–29), Joseph-form update."""
+
+    rate: float = 100.0
+    """Update rate [Hz] (the sensor's)."""
+    initial_covariance: float = 100.0
+    """P(0) = p0 · I [W²]."""
+    process_noise: float = 1e-4
+    """Q = q · I per step [W²]."""
+    measurement_noise: float = 0.25
+    """R, variance of the power sensor [W²] (σ = 0.5 W → 0.25)."""
+
+    def Validate(self, key: str = "estimator") -> None:
+        _positive(self.rate, f"{key}.rate")
+        _positive(self.initial_covariance, f"{key}.initial_covariance")
+        _nonnegative(self.process_noise, f"{key}.process_noise")
+        _positive(self.measurement_noise, f"{key}.measurement_noise")
+
+
+@dc.dataclass
+class PlannerParams:
+    """Output MPC planner-scheduler (paper 003 Eq. 16, Alg. 2)."""
+
+    enabled: bool = True
+    """False flies a static plan (parameters stay at their initial values)."""
+    period: float = 1.0
+    """h_T, re-planning step [s]."""
+    horizon: int = 6
+    """N, horizon in steps of h_T [-]."""
+    warmup: float = 92.0
+    """Time before the planner acts [s] (≈ two periods of energy data)."""
+    path_parameter_bounds: list[float] = dc.field(default_factory=lambda: [-1000.0, 0.0])
+    """[c1_min, c1_max] [m²]; c1_min must be >= r_min² − r²."""
+    initial_path_parameters: list[float] = dc.field(default_factory=lambda: [0.0])
+    """c1(0) [m²]."""
+    path_parameter_step: float = 500.0
+    """δ1, largest change of c1 per re-planning step [m²] (rate limit)."""
+    computation_parameter_step: float = 2.0
+    """δ2, grid step of integer computation parameters [table units]."""
+    path_weight: float = 1.0
+    """Weight of the squared normalised path parameter in the objective [-]."""
+    computation_weight: float = 1.0
+    """Weight of the squared normalised computation parameters [-]."""
+    slack_weight: float = 1e4
+    """Penalty on the output-constraint slack [1/W²]."""
+    max_wall_time: float = 0.25
+    """IPOPT wall-time limit per solve [s]."""
+    max_iterations: int = 100
+    """IPOPT iteration limit per solve [-]."""
+
+    def Validate(self, key: str = "planner") -> None:
+        _positive(self.period, f"{key}.period")
+        _check(
+            isinstance(self.horizon, int) and 1 <= self.horizon <= 1000,
+            f"{key}.horizon",
+            f"must be an integer in [1, 1000], got {self.horizon!r}",
+        )
+        _nonnegative(self.warmup, f"{key}.warmup")
+        _bounds(self.path_parameter_bounds, f"{key}.path_parameter_bounds")
+        _vector(self.initial_path_parameters, f"{key}.initial_path_parameters")
+        lo, hi = self.path_parameter_bounds
+        for i, c in enumerate(self.initial_path_parameters):
+            _in_range(c, f"{key}.initial_path_parameters[{i}]", lo, hi)
+        _positive(self.path_parameter_step, f"{key}.path_parameter_step")
+        _positive(self.computation_parameter_step, f"{key}.computation_parameter_step")
+        _nonnegative(self.path_weight, f"{key}.path_weight")
+        _nonnegative(self.computation_weight, f"{key}.computation_weight")
+        _positive(self.slack_weight, f"{key}.slack_weight")
+        _positive(self.max_wall_time, f"{key}.max_wall_time")
+        _check(
+            isinstance(self.max_iterations, int) and self.max_iterations >= 1,
+            f"{key}.max_iterations",
+            f"must be an integer >= 1, got {self.max_iterations!r}",
+        )
+
+
+@dc.dataclass
+class SimulationParams:
+    """How long and how finely to simulate."""
+
+    time_limit: float = 1500.0
+    """Stop after this much simulated time [s] if nothing else ended the flight."""
+    log_period: float = 0.1
+    """Sampling period of the flight log [s]."""
+
+    def Validate(self, key: str = "simulation") -> None:
+        _positive(self.time_limit, f"{key}.time_limit")
+        _positive(self.log_period, f"{key}.log_period")
+
+
+@dc.dataclass
+class Scenario:
+    """One flight: every parameter of the closed loop."""
+
+    name: str = "reference"
+    description: str = ""
+    vehicle: VehicleParams = dc.field(default_factory=VehicleParams)
+    wind: WindParams = dc.field(default_factory=WindParams)
+    coverage: CoverageParams = dc.field(default_factory=CoverageParams)
+    guidance: GuidanceParams = dc.field(default_factory=GuidanceParams)
+    computation: ComputationParams = dc.field(default_factory=ComputationParams)
+    energy_model: EnergyModelParams = dc.field(default_factory=EnergyModelParams)
+    battery: BatteryParams = dc.field(default_factory=BatteryParams)
+    sensor: SensorParams = dc.field(default_factory=SensorParams)
+    estimator: EstimatorParams = dc.field(default_factory=EstimatorParams)
+    planner: PlannerParams = dc.field(default_factory=PlannerParams)
+    simulation: SimulationParams = dc.field(default_factory=SimulationParams)
+
+    def Validate(self) -> "Scenario":
+        """Checks every field; raises ScenarioError naming the first bad key. Returns self."""
+        for f in dc.fields(self):
+            value = getattr(self, f.name)
+            if hasattr(value, "Validate"):
+                value.Validate(f.name)
+        _check(
+            self.wind.speed < self.vehicle.airspeed,
+            "wind.speed",
+            f"must be below vehicle.airspeed = {self.vehicle.airspeed:g} m/s, "
+            f"got {self.wind.speed:g}",
+        )
+        lo = self.planner.path_parameter_bounds[0]
+        c1_min = self.coverage.min_turning_radius**2 - self.coverage.turning_radius**2
+        _check(
+            lo >= c1_min - 1e-6,
+            "planner.path_parameter_bounds",
+            f"c1_min = {lo:g} is below r_min² − r² = {c1_min:g}",
+        )
+        _check(
+            self.planner.path_parameter_bounds[1] <= 1e-9,
+            "planner.path_parameter_bounds",
+            "c1_max must be <= 0 (r2 = sqrt(r² + c1) may not exceed r)",
+        )
+        return self
+
+
+# -- YAML ---------------------------------------------------------------------------------------
+
+
+def _check_keys(schema, data, key: str) -> None:
+    """Walks raw YAML data against the dataclass schema so that unknown keys are named in full."""
+    if not dc.is_dataclass(schema) or not isinstance(data, dict):
+        return
+    hints = typing.get_type_hints(schema)
+    for name, value in data.items():
+        full = f"{key}.{name}" if key else str(name)
+        if name not in hints:
+            known = ", ".join(sorted(hints))
+            raise ScenarioError(f"{full}: unknown key (known keys here: {known})")
+        _check_type(hints[name], value, full)
+
+
+def _check_type(hint, value, key: str) -> None:
+    """Checks one YAML value against a field's type hint, naming the key on a mismatch."""
+    if dc.is_dataclass(hint):
+        if not isinstance(value, dict):
+            raise ScenarioError(f"{key}: expected a mapping of keys, got {value!r}")
+        _check_keys(hint, value, key)
+    elif typing.get_origin(hint) is list:
+        if not isinstance(value, list):
+            raise ScenarioError(f"{key}: expected a list, got {value!r}")
+        (item,) = typing.get_args(hint)
+        for i, v in enumerate(value):
+            _check_type(item, v, f"{key}[{i}]")
+    elif hint is bool:
+        _check(isinstance(value, bool), key, f"expected true or false, got {value!r}")
+    elif hint is int:
+        _check(
+            isinstance(value, int) and not isinstance(value, bool),
+            key,
+            f"expected an integer, got {value!r}",
+        )
+    elif hint is float:
+        _check(
+            isinstance(value, int | float) and not isinstance(value, bool),
+            key,
+            f"expected a number, got {value!r}",
+        )
+    elif hint is str:
+        _check(isinstance(value, str), key, f"expected a string, got {value!r}")
+
+
+def LoadScenario(filename: str | Path | None = None, data: str | None = None) -> Scenario:
+    """Loads and validates a :class:`Scenario` from a YAML file or string.
+
+    Keys left out keep their reference defaults. Raises :class:`ScenarioError` (a ValueError)
+    naming the key on an unknown key, a wrong type or a value out of range.
+    """
+    from pydrake.common.yaml import yaml_load_data, yaml_load_typed
+
+    if (filename is None) == (data is None):
+        raise ScenarioError("LoadScenario: give exactly one of filename= or data=")
+    if filename is not None:
+        path = Path(filename)
+        if not path.is_file():
+            raise ScenarioError(f"{path}: no such scenario file")
+        data = path.read_text()
+    try:
+        raw = yaml_load_data(data=data)
+    except Exception as e:  # the YAML parser's own errors
+        raise ScenarioError(f"invalid YAML: {e}") from None
+    if raw is None:
+        raw = {}
+    if not isinstance(raw, dict):
+        raise ScenarioError("the scenario must be a mapping of keys at the top level")
+    _check_keys(Scenario, raw, "")
+    if not raw:
+        return Scenario().Validate()
+    try:
+        scenario = yaml_load_typed(schema=Scenario, data=data)
+    except (RuntimeError, ValueError, TypeError) as e:
+        raise ScenarioError(f"wrong type: {e}") from None
+    return scenario.Validate()

@@ -1,0 +1,75 @@
+"""Scenario parameters: defaults, YAML loading and the error messages for bad input."""
+
+import pytest
+
+from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
+
+
+def test_defaults_are_the_reference_numbers():
+    s = LoadScenario(data="")
+    assert s == Scenario().Validate()
+    assert s.vehicle.airspeed == 15.0
+    assert s.battery.voltage == 14.8
+    assert s.battery.internal_resistance == 0.0012
+    assert s.battery.capacity == 3.2
+    assert s.battery.k_b == 0.00183
+    assert s.energy_model.order == 3
+    assert s.planner.horizon == 6
+    assert s.planner.path_parameter_bounds == [-1000.0, 0.0]
+    assert s.vehicle.initial_position == [-100.0, 220.0]
+
+
+def test_partial_yaml_keeps_other_defaults():
+    s = LoadScenario(
+        data="wind: {direction_deg: 90}\nbattery: {faults: [{time: 93, soc_drop: 0.06}]}"
+    )
+    assert s.wind.direction_deg == 90.0
+    assert s.wind.speed == 5.0
+    assert len(s.battery.faults) == 1
+    assert s.battery.faults[0].time == 93.0
+    assert s.battery.faults[0].soc_drop == pytest.approx(0.06)
+
+
+def test_file_loading(tmp_path):
+    f = tmp_path / "s.yaml"
+    f.write_text("name: mine\nsensor: {noise_std: 0.1}\n")
+    s = LoadScenario(filename=f)
+    assert s.name == "mine"
+    assert s.sensor.noise_std == 0.1
+
+
+@pytest.mark.parametrize(
+    "yaml, key",
+    [
+        ("battery: {capcity: 2}", "battery.capcity"),
+        ("battery: {faults: [{tim: 1}]}", "battery.faults[0].tim"),
+        ("battery: {capacity: -1}", "battery.capacity"),
+        ("battery: {internal_resistance: 0}", "battery.internal_resistance"),
+        ("battery: {capacity: abc}", "battery.capacity"),
+        ("battery: {faults: [{time: 1, soc_drop: 2}]}", "battery.faults[0].soc_drop"),
+        ("energy_model: {order: -1}", "energy_model.order"),
+        ("energy_model: {order: 2.5}", "energy_model.order"),
+        ("planner: {path_parameter_bounds: [0, -1]}", "planner.path_parameter_bounds"),
+        ("planner: {path_parameter_bounds: [-5000, 0]}", "planner.path_parameter_bounds"),
+        ("planner: {enabled: 1}", "planner.enabled"),
+        ("wind: {speed: 20}", "wind.speed"),
+        ("vehicle: 3", "vehicle"),
+        ("coverage: {polygon: [[1, x], [2, 3], [4, 5]]}", "coverage.polygon[0][1]"),
+        ("coverage: {min_turning_radius: 80}", "coverage.min_turning_radius"),
+        ("sensor: {dropout_probability: 1.5}", "sensor.dropout_probability"),
+        ("nmae: x", "nmae"),
+    ],
+)
+def test_bad_input_names_the_key(yaml, key):
+    with pytest.raises(ScenarioError) as e:
+        LoadScenario(data=yaml)
+    assert str(e.value).startswith(key + ":"), str(e.value)
+
+
+def test_invalid_yaml_and_missing_file(tmp_path):
+    with pytest.raises(ScenarioError, match="invalid YAML"):
+        LoadScenario(data="a: [")
+    with pytest.raises(ScenarioError, match="no such scenario file"):
+        LoadScenario(filename=tmp_path / "missing.yaml")
+    with pytest.raises(ScenarioError, match="exactly one"):
+        LoadScenario()
