@@ -1,0 +1,187 @@
+"""The closed loop: every system of the planner-scheduler wired into one Drake ``Diagram``.
+
+::
+
+    wind ─► FixedWingPlant ─► StageSequencer ─► VectorFieldGuidance ─► (plant)
+                 │ motion_power                       ▲ path
+                 ▼                                    │
+    ComputationLoad ─► PowerSensor ─► EnergyEstimator ─► PlannerScheduler ─► path_parameters
+         ▲  power        │ true_power                 ▲ soc        │
+         │               └────────► Battery ──────────┘            │ computation_parameters
+         └─────────────────────────────────────────────────────────┘
+
+A static plan (paper 003 plans I and II) is the same diagram with ``planner.enabled: false``: the
+planner then holds its initial parameters. Every system is named (``plant``, ``sequencer``,
+``guidance``, ``computation``, ``sensor``, ``estimator``, ``battery``, ``planner``, ``wind``), the
+key signals are exported as diagram output ports of the same names, and each logged signal has a
+``VectorLogSink`` named ``log_<signal>`` (see :data:`LOGGED_SIGNALS`).
+"""
+
+import numpy as np
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
+
+from eaplan_drake.battery import Battery
+from eaplan_drake.computation import ComputationLoad, LoadComputationTable
+from eaplan_drake.coverage import MakeCoveragePlan
+from eaplan_drake.estimator import EnergyEstimator
+from eaplan_drake.guidance import VectorFieldGuidance
+from eaplan_drake.params import Scenario
+from eaplan_drake.planfile import LoadPlanFile
+from eaplan_drake.planner import PlannerScheduler
+from eaplan_drake.plant import FixedWingPlant, MaxHeadingRate
+from eaplan_drake.sensor import PowerSensor
+from eaplan_drake.sequencer import StageSequencer
+
+__all__ = ["LOGGED_SIGNALS", "MakeEaplanDiagram", "WindVector"]
+
+LOGGED_SIGNALS = {
+    # log name: (system name, output port name)
+    "position": ("plant", "position"),
+    "heading": ("plant", "heading"),
+    "motion_power": ("plant", "motion_power"),
+    "stage": ("sequencer", "stage"),
+    "period": ("sequencer", "period"),
+    "coverage_remaining": ("sequencer", "coverage_remaining"),
+    "computation_power": ("computation", "power"),
+    "measured_power": ("sensor", "measured_power"),
+    "true_power": ("sensor", "true_power"),
+    "estimated_power": ("estimator", "estimated_power"),
+    "energy_coefficients": ("estimator", "energy_coefficients"),
+    "soc": ("battery", "soc"),
+    "power_budget": ("battery", "power_budget"),
+    "brownout": ("battery", "brownout"),
+    "path_parameters": ("planner", "path_parameters"),
+    "computation_parameters": ("planner", "computation_parameters"),
+}
+"""Signals logged by :func:`MakeEaplanDiagram` (``VectorLogSink`` named ``log_<name>``)."""
+
+
+def WindVector(speed: float, direction_deg: float) -> np.ndarray:
+    """w = speed · [cos θ_w, sin θ_w] [m/s], θ_w the direction the wind blows towards."""
+    theta = np.deg2rad(direction_deg)
+    return speed * np.array([np.cos(theta), np.sin(theta)])
+
+
+def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Diagram:
+    """Builds the closed-loop diagram of ``scenario`` (validated first).
+
+    ``log_period`` [s] overrides ``scenario.simulation.log_period``; 0 disables the loggers.
+    """
+    scenario.Validate()
+    builder = DiagramBuilder()
+
+    table = LoadComputationTable(scenario.computation.table)
+    if len(scenario.computation.initial_parameters) != table.num_parameters:
+        raise ValueError(
+            f"computation.initial_parameters: the table {scenario.computation.table!r} has "
+            f"{table.num_parameters} parameter(s), "
+            f"got {len(scenario.computation.initial_parameters)}"
+        )
+    c1_0 = scenario.planner.initial_path_parameters[0]
+    if scenario.coverage.plan_file:
+        plan = LoadPlanFile(scenario.coverage.plan_file, c1=c1_0, k_e=scenario.guidance.k_e)
+    else:
+        plan = MakeCoveragePlan(
+            scenario.coverage, scenario.vehicle, c1=c1_0, k_e=scenario.guidance.k_e
+        )
+
+    wind = builder.AddNamedSystem(
+        "wind", ConstantVectorSource(WindVector(scenario.wind.speed, scenario.wind.direction_deg))
+    )
+    plant = builder.AddNamedSystem("plant", FixedWingPlant(scenario.vehicle))
+    sequencer = builder.AddNamedSystem(
+        "sequencer",
+        StageSequencer(plan, initial_period=scenario.energy_model.initial_period),
+    )
+    guidance = builder.AddNamedSystem(
+        "guidance",
+        VectorFieldGuidance(
+            airspeed=scenario.vehicle.airspeed,
+            guidance=scenario.guidance,
+            max_heading_rate=MaxHeadingRate(scenario.vehicle),
+        ),
+    )
+    computation = builder.AddNamedSystem("computation", ComputationLoad(table))
+    sensor = builder.AddNamedSystem("sensor", PowerSensor(scenario.sensor))
+    estimator = builder.AddNamedSystem(
+        "estimator",
+        EnergyEstimator(
+            order=scenario.energy_model.order,
+            initial_period=scenario.energy_model.initial_period,
+            estimator=scenario.estimator,
+            initial_q=_InitialCoefficients(scenario),
+        ),
+    )
+    battery = builder.AddNamedSystem("battery", Battery(scenario.battery))
+    planner = builder.AddNamedSystem(
+        "planner",
+        PlannerScheduler(
+            planner=scenario.planner,
+            table=table,
+            order=scenario.energy_model.order,
+            battery=scenario.battery,
+            coverage_time_bounds=plan.CoverageTimeBounds(scenario.planner.path_parameter_bounds),
+            initial_computation_parameters=scenario.computation.initial_parameters,
+        ),
+    )
+
+    connect = builder.Connect
+    connect(wind.get_output_port(), plant.GetInputPort("wind"))
+    connect(plant.GetOutputPort("position"), sequencer.GetInputPort("position"))
+    connect(plant.GetOutputPort("position"), guidance.GetInputPort("position"))
+    connect(plant.GetOutputPort("ground_velocity"), guidance.GetInputPort("ground_velocity"))
+    connect(plant.GetOutputPort("heading"), guidance.GetInputPort("heading"))
+    connect(sequencer.GetOutputPort("path"), guidance.GetInputPort("path"))
+    connect(
+        guidance.GetOutputPort("heading_rate_command"), plant.GetInputPort("heading_rate_command")
+    )
+    connect(
+        planner.GetOutputPort("computation_parameters"),
+        computation.GetInputPort("computation_parameters"),
+    )
+    connect(plant.GetOutputPort("motion_power"), sensor.GetInputPort("motion_power"))
+    connect(computation.GetOutputPort("power"), sensor.GetInputPort("computation_power"))
+    connect(computation.GetOutputPort("power"), estimator.GetInputPort("computation_power"))
+    connect(sensor.GetOutputPort("measured_power"), estimator.GetInputPort("measured_power"))
+    connect(sequencer.GetOutputPort("period"), estimator.GetInputPort("period"))
+    connect(sensor.GetOutputPort("true_power"), battery.GetInputPort("power"))
+    connect(
+        estimator.GetOutputPort("energy_coefficients"), planner.GetInputPort("energy_coefficients")
+    )
+    connect(battery.GetOutputPort("soc"), planner.GetInputPort("soc"))
+    connect(sequencer.GetOutputPort("period"), planner.GetInputPort("period"))
+    connect(
+        sequencer.GetOutputPort("coverage_remaining"), planner.GetInputPort("coverage_remaining")
+    )
+    connect(planner.GetOutputPort("path_parameters"), sequencer.GetInputPort("path_parameters"))
+
+    systems = {
+        s.get_name(): s
+        for s in (plant, sequencer, guidance, computation, sensor, estimator, battery, planner)
+    }
+    for name, (system_name, port_name) in LOGGED_SIGNALS.items():
+        builder.ExportOutput(systems[system_name].GetOutputPort(port_name), name)
+    builder.ExportOutput(sequencer.GetOutputPort("mission_complete"), "mission_complete")
+
+    period = scenario.simulation.log_period if log_period is None else log_period
+    if period > 0.0:
+        for name, (system_name, port_name) in LOGGED_SIGNALS.items():
+            logger = LogVectorOutput(
+                systems[system_name].GetOutputPort(port_name), builder, publish_period=period
+            )
+            logger.set_name(f"log_{name}")
+
+    diagram = builder.Build()
+    diagram.set_name("eaplan")
+    return diagram
+
+
+def _InitialCoefficients(scenario: Scenario) -> np.ndarray:
+    """q(0) [W]: the configured coefficients, or α0 = initial mean power and zero harmonics."""
+    m = 2 * scenario.energy_model.order + 1
+    if scenario.energy_model.initial_coefficients:
+        return np.asarray(scenario.energy_model.initial_coefficients, dtype=float)
+    q0 = np.zeros(m)
+    q0[0] = scenario.energy_model.initial_mean_power
+    return q0

@@ -1,0 +1,249 @@
+"""Runs a scenario's closed loop with Drake's ``Simulator`` and returns a flight log.
+
+The flight ends (a ``Simulator`` monitor returning ``EventStatus.ReachedTermination``) when the
+survey is complete, the battery reaches its reserve SoC, the battery browns out, or at the
+scenario's time limit. :class:`FlightLog` holds the logged time series and a summary with the
+paper's quality metric (paper 003 Sec. V)
+
+    P = mean_t(½ c̃1 + ½ c̃2) / (b(t_f) − b_reserve),
+
+c̃ the parameters normalised to [0, 1] by their bounds; a flight that does not complete the survey
+or ends with b ≤ b_reserve fails (P is then ``None``). Logs save as ``log.npz`` + ``summary.json``,
+each written to a temporary file and renamed, so an interrupted save never leaves a half file.
+"""
+
+import dataclasses as dc
+import json
+import os
+import tempfile
+import time
+from collections.abc import Callable
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import EventStatus
+
+from eaplan_drake.diagram import LOGGED_SIGNALS, MakeEaplanDiagram
+from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
+
+__all__ = [
+    "FlightLog",
+    "LoadFlightLog",
+    "LoadNamedScenario",
+    "QualityMetric",
+    "REFERENCE_SCENARIOS",
+    "Simulate",
+]
+
+REFERENCE_SCENARIOS = ("plan_I", "plan_II", "plan_i", "plan_ii")
+"""The four reference flights of paper 003 Sec. V, shipped as YAML scenarios."""
+
+STATUS_COMPLETE = "complete"
+STATUS_RESERVE = "reserve_reached"
+STATUS_BROWNOUT = "brownout"
+STATUS_TIME_LIMIT = "time_limit"
+
+
+def LoadNamedScenario(name_or_path: str | Path) -> Scenario:
+    """A shipped scenario by name (``plan_I``, ``plan_II``, ``plan_i``, ``plan_ii``) or a YAML
+    path. Raises :class:`ScenarioError` with one clear line on any problem."""
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        return LoadScenario(filename=path)
+    shipped = resources.files("eaplan_drake") / "scenarios" / f"{name_or_path}.yaml"
+    if not shipped.is_file():
+        raise ScenarioError(
+            f"{name_or_path}: not a YAML file nor a shipped scenario "
+            f"(shipped: {', '.join(REFERENCE_SCENARIOS)})"
+        )
+    return LoadScenario(data=shipped.read_text())
+
+
+@dc.dataclass
+class FlightLog:
+    """Time series of one flight (``times`` [s] and one array per signal, samples along axis 0)
+    and a JSON-able ``summary``."""
+
+    times: np.ndarray
+    signals: dict[str, np.ndarray]
+    summary: dict
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.signals[name]
+
+    def Save(self, directory: str | Path) -> Path:
+        """Writes ``log.npz`` and ``summary.json`` into ``directory`` (created) atomically."""
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        _AtomicWrite(
+            directory / "log.npz",
+            lambda f: np.savez_compressed(f, times=self.times, **self.signals),
+            binary=True,
+        )
+        _AtomicWrite(
+            directory / "summary.json",
+            lambda f: json.dump(self.summary, f, indent=2, sort_keys=True),
+            binary=False,
+        )
+        return directory
+
+
+def LoadFlightLog(directory: str | Path) -> FlightLog:
+    """Reads a log written by :meth:`FlightLog.Save`."""
+    directory = Path(directory)
+    with np.load(directory / "log.npz") as data:
+        arrays = {k: data[k] for k in data.files}
+    summary = json.loads((directory / "summary.json").read_text())
+    times = arrays.pop("times")
+    return FlightLog(times=times, signals=arrays, summary=summary)
+
+
+def _AtomicWrite(path: Path, write: Callable, binary: bool) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb" if binary else "w") as f:
+            write(f)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def QualityMetric(
+    times: np.ndarray,
+    path_parameters: np.ndarray,
+    computation_parameters: np.ndarray,
+    path_bounds: tuple[float, float],
+    computation_bounds: tuple[np.ndarray, np.ndarray],
+    final_soc: float,
+    reserve_soc: float,
+    completed: bool,
+) -> tuple[float | None, float, float]:
+    """The paper's metric P (``None`` for a failed flight), with mean c̃1 and mean c̃2.
+
+    Means are time-weighted (trapezoid over ``times``); several computation parameters are
+    averaged into c̃2.
+    """
+    lo, hi = path_bounds
+    c1n = _Normalise(np.asarray(path_parameters, dtype=float)[:, 0], lo, hi)
+    clo, chi = (np.asarray(b, dtype=float) for b in computation_bounds)
+    c2 = np.asarray(computation_parameters, dtype=float).reshape(len(times), -1)
+    c2n = np.mean(_Normalise(c2, clo, chi), axis=1)
+    mean_c1 = _TimeMean(times, c1n)
+    mean_c2 = _TimeMean(times, c2n)
+    margin = final_soc - reserve_soc
+    if not completed or margin <= 0.0:
+        return None, mean_c1, mean_c2
+    return (0.5 * mean_c1 + 0.5 * mean_c2) / margin, mean_c1, mean_c2
+
+
+def _Normalise(c, lo, hi):
+    span = np.where(np.asarray(hi) > np.asarray(lo), np.asarray(hi) - np.asarray(lo), 1.0)
+    return np.clip((c - lo) / span, 0.0, 1.0)
+
+
+def _TimeMean(t: np.ndarray, x: np.ndarray) -> float:
+    if len(t) < 2 or t[-1] <= t[0]:
+        return float(x[-1]) if len(x) else 0.0
+    return float(np.sum(0.5 * (x[1:] + x[:-1]) * np.diff(t)) / (t[-1] - t[0]))
+
+
+def Simulate(
+    scenario: Scenario,
+    progress: Callable[[float, float], None] | None = None,
+    progress_interval: float = 60.0,
+) -> FlightLog:
+    """Simulates ``scenario`` until the survey completes, the reserve is reached, the battery
+    browns out or ``scenario.simulation.time_limit``; returns the :class:`FlightLog`.
+
+    ``progress(t, soc)`` is called about every ``progress_interval`` simulated seconds.
+    """
+    wall_start = time.perf_counter()
+    diagram = MakeEaplanDiagram(scenario)
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    complete_port = diagram.GetOutputPort("mission_complete")
+    soc_port = diagram.GetOutputPort("soc")
+    brownout_port = diagram.GetOutputPort("brownout")
+    reserve = scenario.battery.reserve_soc
+    state = {"status": STATUS_TIME_LIMIT, "next_progress": progress_interval}
+
+    def monitor(root_context):
+        if complete_port.Eval(root_context)[0] > 0.5:
+            state["status"] = STATUS_COMPLETE
+        elif brownout_port.Eval(root_context)[0] > 0.5:
+            state["status"] = STATUS_BROWNOUT
+        elif soc_port.Eval(root_context)[0] <= reserve:
+            state["status"] = STATUS_RESERVE
+        else:
+            t = root_context.get_time()
+            if progress is not None and t >= state["next_progress"]:
+                state["next_progress"] += progress_interval
+                progress(t, float(soc_port.Eval(root_context)[0]))
+            return EventStatus.Succeeded()
+        return EventStatus.ReachedTermination(diagram, state["status"])
+
+    simulator.set_monitor(monitor)
+    simulator.Initialize()
+    simulator.AdvanceTo(scenario.simulation.time_limit)
+    wall_time = time.perf_counter() - wall_start
+
+    log = _CollectLog(diagram, context)
+    final_time = context.get_time()
+    final_soc = float(soc_port.Eval(context)[0])
+    planner = diagram.GetSubsystemByName("planner")
+    stats = planner.statistics() if hasattr(planner, "statistics") else {}
+    table_lo = np.asarray(planner.table.lower, dtype=float)
+    table_hi = np.asarray(planner.table.upper, dtype=float)
+    completed = state["status"] == STATUS_COMPLETE
+    metric, mean_c1, mean_c2 = QualityMetric(
+        log.times,
+        log["path_parameters"],
+        log["computation_parameters"],
+        tuple(scenario.planner.path_parameter_bounds),
+        (table_lo, table_hi),
+        final_soc,
+        reserve,
+        completed,
+    )
+    log.summary = {
+        "scenario": scenario.name,
+        "status": state["status"],
+        "completed": completed,
+        "duration": final_time,
+        "final_soc": final_soc,
+        "reserve_soc": reserve,
+        "mean_path_parameter_normalised": mean_c1,
+        "mean_computation_parameter_normalised": mean_c2,
+        "metric": metric,
+        "planner": _JsonSafe(stats),
+        "wall_time": wall_time,
+        "realtime_factor": final_time / wall_time if wall_time > 0 else None,
+    }
+    return log
+
+
+def _CollectLog(diagram, context) -> FlightLog:
+    signals = {}
+    times = None
+    for name in LOGGED_SIGNALS:
+        logger = diagram.GetSubsystemByName(f"log_{name}")
+        log = logger.FindLog(context)
+        if times is None:
+            times = np.array(log.sample_times())
+        signals[name] = np.array(log.data()).T
+    return FlightLog(times=times, signals=signals, summary={})
+
+
+def _JsonSafe(value):
+    if isinstance(value, dict):
+        return {str(k): _JsonSafe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple | np.ndarray):
+        return [_JsonSafe(v) for v in np.asarray(value).tolist()]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
