@@ -24,11 +24,15 @@ dimensionally Q_c·V is an energy (Ah·V = Wh). We keep the papers' number and n
 budget: "the power budget at full charge (Q_c·V, read as watts) times b".
 """
 
+import math
+
 import numpy as np
+from pydrake.systems.framework import LeafSystem
 
 from eaplan_drake.params import BatteryParams
 
 __all__ = [
+    "Battery",
     "IsBrownout",
     "MaxDeliverablePower",
     "PowerBudget",
@@ -109,3 +113,129 @@ def PowerBudget(b, params: BatteryParams):
     """
     budget = np.asarray(b, dtype=float) * (params.capacity * params.voltage)
     return float(budget) if budget.ndim == 0 else budget
+
+
+# -- Drake system -------------------------------------------------------------------------------
+
+
+class Battery(LeafSystem):
+    """State of charge b of a Rint battery under a load power y (paper 003 Lemma III.3).
+
+    Discrete state, updated every ``time_step`` h [s] at t_k = k·h (the load is sampled and held,
+    so the step is exact for a piecewise-constant load):
+
+        b(t_k) = clip(b(t_{k−1}) − k_b I(y(t_{k−1})) h / Q_c, 0, 1) − Σ_{τ ∈ (t_{k−1}, t_k]} Δb
+
+    (clipped at 0 again after the faults Δb), with I(y) of :func:`RintCurrent`. A fault (τ, Δb) is
+    applied exactly once, by the first update at t_k ≥ τ (1e-9 s tolerance for the floating-point
+    event times); Δb is an absolute drop (0.06 = −6 % of full charge). The very first update
+    (t = 0) only samples the load and applies faults with τ ≤ 0. The SoC never goes below 0.
+
+    Outputs: ``soc`` b(t_k) [-] and ``power_budget`` b·Q_c·V (Def. III.3, see :func:`PowerBudget`)
+    depend on the state only; ``current`` I(y(t)) [A] and ``brownout`` (1.0 when y(t) > V²/(4R_r),
+    else 0.0) are direct feedthrough of ``power``. Above V²/(4R_r) the current is V/(2R_r) and the
+    SoC falls at that current (never NaN). A non-finite ``power`` raises RuntimeError.
+
+    Discrete state vector: [b, held load power y(t_{k−1}) [W], index of the next fault].
+
+    .. pydrake_system::
+
+        name: Battery
+        input_ports:
+        - power
+        output_ports:
+        - soc
+        - current
+        - power_budget
+        - brownout
+    """
+
+    def __init__(self, params: BatteryParams, time_step: float = 0.01):
+        super().__init__()
+        params.Validate("battery")
+        h = float(time_step) if isinstance(time_step, (int, float)) else math.nan
+        if not (math.isfinite(h) and h > 0.0):
+            raise ValueError(f"time_step: must be a finite number > 0 [s], got {time_step!r}")
+        self._params = params
+        self._time_step = h
+        self._V = float(params.voltage)
+        self._R = float(params.internal_resistance)
+        self._V2 = self._V * self._V
+        self._four_R = 4.0 * self._R
+        self._p_max = MaxDeliverablePower(self._V, self._R)
+        self._i_max = self._V / (2.0 * self._R)
+        self._rate_per_amp_step = float(params.k_b) / float(params.capacity) * h  # Δb per A·step
+        self._budget_per_soc = float(params.capacity) * float(params.voltage)
+        faults = sorted(params.faults, key=lambda f: f.time)
+        self._fault_times = [float(f.time) - 1e-9 for f in faults]
+        self._fault_drops = [float(f.soc_drop) for f in faults]
+
+        self._power_port = self.DeclareVectorInputPort("power", 1)
+        self._state_index = self.DeclareDiscreteState(
+            np.array([float(params.initial_soc), 0.0, 0.0])
+        )
+        self.DeclarePeriodicDiscreteUpdateEvent(h, 0.0, self._Update)
+        state_only = {self.xd_ticket()}
+        from_input = {self._power_port.ticket()}
+        self._soc_port = self.DeclareVectorOutputPort(
+            "soc", 1, self._CalcSoc, prerequisites_of_calc=state_only
+        )
+        self._current_port = self.DeclareVectorOutputPort(
+            "current", 1, self._CalcCurrent, prerequisites_of_calc=from_input
+        )
+        self._power_budget_port = self.DeclareVectorOutputPort(
+            "power_budget", 1, self._CalcPowerBudget, prerequisites_of_calc=state_only
+        )
+        self._brownout_port = self.DeclareVectorOutputPort(
+            "brownout", 1, self._CalcBrownout, prerequisites_of_calc=from_input
+        )
+
+    @property
+    def time_step(self) -> float:
+        """Update period h [s]."""
+        return self._time_step
+
+    @property
+    def params(self) -> BatteryParams:
+        return self._params
+
+    # -- hot path: scalar math only ------------------------------------------------------------
+
+    def _Current(self, y: float) -> float:
+        if y >= self._p_max:
+            return self._i_max
+        return 2.0 * y / (self._V + math.sqrt(self._V2 - self._four_R * y))
+
+    def _Power(self, context) -> float:
+        y = float(self._power_port.Eval(context)[0])
+        if not math.isfinite(y):
+            raise RuntimeError(
+                f"Battery: input 'power' is not finite ({y}) at t = {context.get_time()}"
+            )
+        return y
+
+    def _Update(self, context, discrete_state) -> None:
+        b, y_held, next_fault = context.get_discrete_state_vector().value()
+        y = self._Power(context)
+        b -= self._Current(y_held) * self._rate_per_amp_step
+        b = 1.0 if b > 1.0 else (0.0 if b < 0.0 else b)
+        k = int(next_fault)
+        if k < len(self._fault_times):
+            t = context.get_time()
+            while k < len(self._fault_times) and self._fault_times[k] <= t:
+                b = max(b - self._fault_drops[k], 0.0)
+                k += 1
+        discrete_state.set_value(np.array([b, y, float(k)]))
+
+    def _CalcSoc(self, context, output) -> None:
+        output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(0))
+
+    def _CalcPowerBudget(self, context, output) -> None:
+        b = context.get_discrete_state_vector().GetAtIndex(0)
+        output.SetAtIndex(0, b * self._budget_per_soc)
+
+    def _CalcCurrent(self, context, output) -> None:
+        output.SetAtIndex(0, self._Current(self._Power(context)))
+
+    def _CalcBrownout(self, context, output) -> None:
+        output.SetAtIndex(0, 1.0 if self._Power(context) > self._p_max else 0.0)

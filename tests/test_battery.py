@@ -1,11 +1,16 @@
 """Tests of the Rint battery functions (paper 003 Lemma III.3) and the Battery system."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
 
 from eaplan_drake.battery import (
+    Battery,
     IsBrownout,
     MaxDeliverablePower,
     PowerBudget,
@@ -14,7 +19,7 @@ from eaplan_drake.battery import (
     SocDerivative,
     TimeToSoc,
 )
-from eaplan_drake.params import BatteryParams
+from eaplan_drake.params import BatteryFault, BatteryParams
 
 V, R, Q, KB = 14.8, 0.0012, 3.2, 0.00183
 
@@ -99,3 +104,193 @@ def test_power_budget_is_b_times_capacity_times_voltage():
     p = Reference()
     assert PowerBudget(1.0, p) == pytest.approx(Q * V, rel=1e-15)  # 47.36, authors' bat.csv row 0
     np.testing.assert_allclose(PowerBudget(np.array([0.0, 0.5]), p), [0.0, 0.5 * Q * V])
+
+
+# -- Battery system -----------------------------------------------------------------------------
+
+H = 0.01
+PLAN_I_FAULTS = [BatteryFault(time=93.0, soc_drop=0.06), BatteryFault(time=270.0, soc_drop=0.09)]
+
+
+def MakeDiagram(params: BatteryParams, power: float, time_step: float = H):
+    builder = DiagramBuilder()
+    battery = builder.AddSystem(Battery(params, time_step=time_step))
+    source = builder.AddSystem(ConstantVectorSource([power]))
+    builder.Connect(source.get_output_port(), battery.GetInputPort("power"))
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = battery.GetMyContextFromRoot(simulator.get_mutable_context())
+    return battery, simulator, context
+
+
+def Soc(battery, context) -> float:
+    return float(battery.GetOutputPort("soc").Eval(context)[0])
+
+
+def test_ports_and_sizes():
+    battery = Battery(Reference())
+    assert battery.num_input_ports() == 1 and battery.num_output_ports() == 4
+    assert battery.GetInputPort("power").size() == 1
+    for name in ("soc", "current", "power_budget", "brownout"):
+        assert battery.GetOutputPort(name).size() == 1
+    # SoC and budget come from the state; current and brownout follow the load directly.
+    feedthrough = {
+        name
+        for name in ("soc", "current", "power_budget", "brownout")
+        if battery.HasDirectFeedthrough(0, battery.GetOutputPort(name).get_index())
+    }
+    assert feedthrough == {"current", "brownout"}
+    assert battery.time_step == H
+
+
+def test_outputs_match_pure_functions():
+    params = Reference()
+    params.initial_soc = 0.7
+    battery, _, context = MakeDiagram(params, 33.0)
+    assert Soc(battery, context) == 0.7
+    assert battery.GetOutputPort("power_budget").Eval(context)[0] == pytest.approx(
+        PowerBudget(0.7, params), rel=1e-15
+    )
+    assert battery.GetOutputPort("current").Eval(context)[0] == pytest.approx(
+        RintCurrent(33.0, V, R), rel=1e-15
+    )
+    assert battery.GetOutputPort("brownout").Eval(context)[0] == 0.0
+
+
+def test_constant_power_matches_closed_form_in_simulator():
+    params = Reference()
+    battery, simulator, context = MakeDiagram(params, 33.0)
+    rate = SocDerivative(33.0, params)
+    for t in (1.0, 100.0, 500.0):
+        # Advance half a step past t so that the last update is the one at t (k = t / h).
+        simulator.AdvanceTo(t + H / 2)
+        assert Soc(battery, context) == pytest.approx(1.0 + rate * t, abs=1e-10)
+        assert battery.GetOutputPort("power_budget").Eval(context)[0] == pytest.approx(
+            PowerBudget(1.0 + rate * t, params), abs=1e-8
+        )
+
+
+def test_33_watts_empty_the_battery_at_784_s_in_simulator_and_soc_stays_at_zero():
+    params = Reference()
+    battery, simulator, context = MakeDiagram(params, 33.0)
+    t_empty = TimeToSoc(1.0, 0.0, 33.0, params)  # 784.094 s
+    simulator.AdvanceTo(t_empty - 2 * H)
+    assert 0.0 < Soc(battery, context) < 3 * H * -SocDerivative(33.0, params)
+    simulator.AdvanceTo(t_empty + 2 * H)
+    assert Soc(battery, context) == 0.0
+    simulator.AdvanceTo(900.0)
+    assert Soc(battery, context) == 0.0
+    assert battery.GetOutputPort("power_budget").Eval(context)[0] == 0.0
+
+
+def test_plan_i_fault_schedule_lands_at_93_and_270_s_exactly_once():
+    params = Reference()
+    params.faults = list(PLAN_I_FAULTS)
+    y = 30.0
+    battery, simulator, context = MakeDiagram(params, y)
+    step = SocDerivative(y, params) * H  # SoC change per step without faults (< 0)
+
+    def SocAt(t):
+        simulator.AdvanceTo(t)
+        return Soc(battery, context)
+
+    for fault_time, drop, dropped_before in ((93.0, 0.06, 0.0), (270.0, 0.09, 0.06)):
+        before = SocAt(fault_time - H / 2)  # last update at fault_time − h
+        at = SocAt(fault_time + H / 2)  # the update at fault_time applies the drop
+        after = SocAt(fault_time + 3 * H / 2)
+        assert before == pytest.approx(
+            1.0 + (fault_time - H) * step / H - dropped_before, abs=1e-10
+        )
+        assert at - before == pytest.approx(step - drop, abs=1e-10)
+        assert after - at == pytest.approx(step, abs=1e-10)
+    # Exactly once each: at 400 s only the two drops and the steady discharge.
+    assert SocAt(400.0 + H / 2) == pytest.approx(1.0 + 400.0 * step / H - 0.15, abs=1e-10)
+
+
+def test_off_grid_fault_applies_at_the_next_update_and_never_below_zero():
+    params = Reference()
+    params.initial_soc = 0.05
+    params.faults = [BatteryFault(time=2.004, soc_drop=0.5), BatteryFault(time=2.004, soc_drop=0.2)]
+    battery, simulator, context = MakeDiagram(params, 10.0)
+    simulator.AdvanceTo(2.005)  # last update at 2.00
+    assert Soc(battery, context) > 0.04
+    simulator.AdvanceTo(2.015)  # update at 2.01 contains 2.004
+    assert Soc(battery, context) == 0.0
+    simulator.AdvanceTo(3.0)
+    assert Soc(battery, context) == 0.0
+
+
+def test_fault_at_time_zero_is_applied_by_the_first_update():
+    params = Reference()
+    params.faults = [BatteryFault(time=0.0, soc_drop=0.1)]
+    battery, simulator, context = MakeDiagram(params, 0.0)
+    simulator.AdvanceTo(0.005)
+    assert Soc(battery, context) == pytest.approx(0.9, abs=1e-15)
+    simulator.AdvanceTo(1.0)
+    assert Soc(battery, context) == pytest.approx(0.9, abs=1e-15)
+
+
+def test_overload_sets_brownout_without_nan():
+    params = Reference()
+    overload = 2.0 * MaxDeliverablePower(V, R)
+    battery, simulator, context = MakeDiagram(params, overload)
+    simulator.AdvanceTo(0.5)
+    assert battery.GetOutputPort("brownout").Eval(context)[0] == 1.0
+    assert battery.GetOutputPort("current").Eval(context)[0] == pytest.approx(V / (2 * R))
+    soc = Soc(battery, context)
+    # Discharges at the maximum-power current V / (2 R_r) for 0.49 s (updates at 0.01 … 0.49 s).
+    expected = max(1.0 - KB * V / (2 * R) / Q * 0.49, 0.0)
+    assert math.isfinite(soc) and soc == pytest.approx(expected, abs=1e-12)
+    for name in ("soc", "current", "power_budget", "brownout"):
+        assert np.all(np.isfinite(battery.GetOutputPort(name).Eval(context)))
+
+
+def test_non_finite_power_is_an_error_not_a_nan():
+    battery, simulator, context = MakeDiagram(Reference(), math.nan)
+    with pytest.raises(RuntimeError, match="power"):
+        battery.GetOutputPort("current").Eval(context)
+    with pytest.raises(RuntimeError, match="power"):
+        simulator.AdvanceTo(0.1)
+
+
+@pytest.mark.parametrize(
+    "field, value, message",
+    [
+        ("capacity", -1.0, "battery.capacity"),
+        ("internal_resistance", 0.0, "battery.internal_resistance"),
+        ("voltage", math.nan, "battery.voltage"),
+        ("k_b", 0.0, "battery.k_b"),
+        ("initial_soc", 1.5, "battery.initial_soc"),
+        ("faults", [BatteryFault(time=1.0, soc_drop=0.0)], r"battery.faults\[0\].soc_drop"),
+        ("faults", [BatteryFault(time=-1.0, soc_drop=0.1)], r"battery.faults\[0\].time"),
+    ],
+)
+def test_bad_params_name_the_field(field, value, message):
+    params = Reference()
+    setattr(params, field, value)
+    with pytest.raises(ValueError, match=message):
+        Battery(params)
+
+
+@pytest.mark.parametrize("time_step", [0.0, -0.01, math.inf, "0.01"])
+def test_bad_time_step_is_named(time_step):
+    with pytest.raises(ValueError, match="time_step"):
+        Battery(Reference(), time_step=time_step)
+
+
+AUTHORS = Path("/work/shared/reference/seewald2022/plan_I/bat.csv")
+
+
+@pytest.mark.skipif(not AUTHORS.exists(), reason="authors' reference data not available")
+def test_authors_plan_I_budget_column_and_absolute_fault_drops():
+    # bat.csv: t, b, b·Q_c·V. Their SoC is a scripted piecewise-linear profile (not the Rint
+    # model), so only the budget definition and the fault semantics are comparable.
+    data = np.loadtxt(AUTHORS, delimiter=",")
+    np.testing.assert_allclose(PowerBudget(data[:, 1], Reference()), data[:, 2], atol=1e-3)
+    jumps = np.diff(data[:, 1])
+    big = np.flatnonzero(jumps < -0.01)
+    # Two drops, right at 93 s and 270 s (1 s log), of 0.06 and 0.09 of full charge (absolute),
+    # each on top of ≈1 s of steady discharge (< 0.003).
+    assert len(big) == 2
+    np.testing.assert_allclose(data[big + 1, 0], [93.0, 270.0], atol=1.0)
+    np.testing.assert_allclose(-jumps[big], [0.06, 0.09], atol=0.003)
