@@ -1,0 +1,178 @@
+"""Tests of the scaled periodic energy model (paper 003 Eqs. 3–12, Lemma III.1)."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eaplan_drake.energy_model import (
+    DiscreteFourierMatrices,
+    EstimatePeriod,
+    FitFourierSeries,
+    FourierMatrices,
+    FourierStateFromCoefficients,
+)
+
+REFERENCE = Path("/work/shared/reference/seewald2022")
+
+
+def _series(t, a0, a, b, T):
+    """h(t) = a0/T + (2/T) Σ (a_j cos ωjt + b_j sin ωjt), written out independently."""
+    w = 2.0 * math.pi / T
+    y = np.full_like(np.asarray(t, dtype=float), a0 / T)
+    for j, (aj, bj) in enumerate(zip(a, b, strict=True), start=1):
+        y += (2.0 / T) * (aj * np.cos(w * j * t) + bj * np.sin(w * j * t))
+    return y
+
+
+def _expm(M, terms=60):
+    """Matrix exponential by scaling and squaring of a Taylor series (test-only reference)."""
+    s = max(0, int(math.ceil(math.log2(max(np.abs(M).sum(axis=1).max(), 1e-300)))) + 1)
+    X = M / 2.0**s
+    E = np.eye(M.shape[0])
+    term = np.eye(M.shape[0])
+    for k in range(1, terms):
+        term = term @ X / k
+        E = E + term
+    for _ in range(s):
+        E = E @ E
+    return E
+
+
+@pytest.mark.parametrize("order", [0, 1, 3, 5])
+def test_matrices_shapes_and_structure(order):
+    T = 46.0
+    A, B, C = FourierMatrices(order, T)
+    m = 2 * order + 1
+    assert A.shape == (m, m) and B.shape == (m, 1) and C.shape == (1, m)
+    np.testing.assert_array_equal(A, -A.T)  # skew: a pure oscillator
+    np.testing.assert_array_equal(B[:, 0], np.eye(m)[0])
+    expected_C = np.zeros(m)
+    expected_C[0] = 1.0
+    expected_C[1::2] = 1.0
+    np.testing.assert_array_equal(C[0], expected_C)
+    w = 2 * math.pi / T
+    for j in range(1, order + 1):
+        assert A[2 * j - 1, 2 * j] == pytest.approx(w * j)
+        assert A[2 * j, 2 * j - 1] == pytest.approx(-w * j)
+    # eigenvalues 0, ±iωj
+    eig = np.sort(np.abs(np.linalg.eigvals(A).imag))
+    np.testing.assert_allclose(eig, np.sort([0.0] + [w * j for j in range(1, order + 1)] * 2))
+
+
+@pytest.mark.parametrize("h", [0.01, 0.37, 5.0, 46.0])
+def test_discretisation_is_the_matrix_exponential(h):
+    A, B, _ = FourierMatrices(3, 46.0)
+    Ad, Bd = DiscreteFourierMatrices(3, 46.0, h)
+    np.testing.assert_allclose(Ad, _expm(A * h), atol=1e-12)
+    np.testing.assert_array_equal(Bd, B)
+    np.testing.assert_allclose(Ad @ Ad.T, np.eye(7), atol=1e-14)  # orthogonal
+
+
+def test_lemma_III_1_random_coefficients_over_20_periods():
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        r = int(rng.integers(1, 6))
+        T = float(rng.uniform(10.0, 80.0))
+        a0 = float(rng.uniform(500.0, 2000.0))
+        a = rng.normal(0.0, 50.0, r)
+        b = rng.normal(0.0, 50.0, r)
+        h = 0.01 * float(rng.uniform(0.5, 2.0))
+        q = FourierStateFromCoefficients(a0, a, b, T)
+        np.testing.assert_allclose(q[0], a0 / T)
+        Ad, _ = DiscreteFourierMatrices(r, T, h)
+        _, _, C = FourierMatrices(r, T)
+        n = int(math.ceil(20 * T / h)) + 1
+        ys = np.empty(n)
+        for k in range(n):
+            ys[k] = (C @ q)[0]
+            q = Ad @ q
+        t = h * np.arange(n)
+        truth = _series(t, a0, a, b, T)
+        err = np.max(np.abs(ys - truth) / np.abs(truth))
+        assert err < 1e-9, f"r={r}, T={T}: relative error {err:g}"
+
+
+def test_amplitude_preserved_over_1e5_steps():
+    rng = np.random.default_rng(5)
+    q0 = rng.normal(0.0, 3.0, 7)
+    Ad, _ = DiscreteFourierMatrices(3, 46.0, 0.01)
+    q = q0.copy()
+    for _ in range(100_000):
+        q = Ad @ q
+    for j in range(1, 4):
+        amp0 = math.hypot(q0[2 * j - 1], q0[2 * j])
+        amp = math.hypot(q[2 * j - 1], q[2 * j])
+        assert amp == pytest.approx(amp0, rel=1e-10)
+    assert q[0] == q0[0]
+    # after exactly 1e5 steps of 0.01 s = 1000 s the phase is that of the analytic solution
+    np.testing.assert_allclose(q, _expm(FourierMatrices(3, 46.0)[0] * 1000.0) @ q0, atol=1e-8)
+
+
+def test_input_raises_output_by_exactly_delta_g():
+    rng = np.random.default_rng(2)
+    Ad, Bd = DiscreteFourierMatrices(3, 46.0, 0.01)
+    _, _, C = FourierMatrices(3, 46.0)
+    q = rng.normal(30.0, 2.0, 7)
+    dg = 1.73
+    y_free = (C @ (Ad @ q))[0]
+    y_step = (C @ (Ad @ q + Bd[:, 0] * dg))[0]
+    assert y_step - y_free == pytest.approx(dg, abs=1e-12)
+
+
+def test_bad_arguments_name_the_field():
+    with pytest.raises(ValueError, match="order"):
+        FourierMatrices(-1, 46.0)
+    with pytest.raises(ValueError, match="order"):
+        FourierMatrices(1.5, 46.0)
+    with pytest.raises(ValueError, match="period"):
+        FourierMatrices(3, 0.0)
+    with pytest.raises(ValueError, match="period"):
+        DiscreteFourierMatrices(3, float("nan"), 0.01)
+    with pytest.raises(ValueError, match="time step"):
+        DiscreteFourierMatrices(3, 46.0, -0.01)
+
+
+def test_fourier_fit_recovers_state_from_noisy_signal():
+    rng = np.random.default_rng(7)
+    T, r = 46.0, 3
+    a0, a, b = 31.0 * T, rng.normal(0, 40, r), rng.normal(0, 40, r)
+    t = np.arange(0.0, 3 * T, 0.1)
+    y = _series(t, a0, a, b, T) + rng.normal(0.0, 0.5, t.size)
+    y[rng.uniform(size=t.size) < 0.1] = np.nan  # dropped samples are ignored
+    q = FitFourierSeries(t, y, r, T)
+    np.testing.assert_allclose(q, FourierStateFromCoefficients(a0, a, b, T), atol=0.05)
+    # the state at another time is the propagated one
+    q_late = FitFourierSeries(t, y, r, T, at_time=10.0)
+    Ad, _ = DiscreteFourierMatrices(r, T, 10.0)
+    np.testing.assert_allclose(q_late, Ad @ q, atol=1e-9)
+    with pytest.raises(ValueError, match="at least"):
+        FitFourierSeries(t[:5], y[:5], r, T)
+
+
+def test_period_estimate_on_synthetic_signal():
+    rng = np.random.default_rng(9)
+    for T in (46.0, 31.7, 60.0):
+        a = np.array([60.0, 25.0, 10.0])
+        b = np.array([-20.0, 30.0, 5.0])
+        t = np.sort(rng.uniform(0.0, 5 * T, 2000))  # irregular sampling
+        y = _series(t, 31.0 * T, a, b, T) + rng.normal(0.0, 0.5, t.size)
+        assert EstimatePeriod(t, y) == pytest.approx(T, rel=0.01)
+
+
+def test_period_estimate_errors():
+    t = np.arange(0.0, 10.0, 0.1)
+    with pytest.raises(ValueError, match="empty lag range"):
+        EstimatePeriod(t, np.sin(t), min_period=8.0, max_period=5.0)
+    with pytest.raises(ValueError, match="samples"):
+        EstimatePeriod(t[:3], t[:3])
+
+
+@pytest.mark.skipif(not REFERENCE.is_dir(), reason="authors' reference data not available")
+def test_period_estimate_on_authors_plan_I_log():
+    data = np.loadtxt(REFERENCE / "plan_I" / "energy_resized.csv", delimiter=",")
+    t, y = data[:, 0], data[:, 1]
+    first = t <= 200.0  # about four periods, as available early in flight
+    assert EstimatePeriod(t[first], y[first]) == pytest.approx(46.0, abs=1.0)
+    assert EstimatePeriod(t, y) == pytest.approx(46.0, abs=1.0)
