@@ -1,0 +1,168 @@
+"""Tests of the PowerSensor system and its seeded noise / dropout draws."""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Adder, ConstantVectorSource, Sine
+
+from eaplan_drake.params import SensorParams
+from eaplan_drake.sensor import BLOCK_SIZE, NoiseSamples, PowerSensor
+
+AMPLITUDE, OMEGA, PHASE, OFFSET = 4.0, 0.7, 0.3, 6.0  # computation power 6 W + 4 sin(0.7 t + 0.3)
+MOTION = 25.0
+
+
+def TruePower(t):
+    return MOTION + OFFSET + AMPLITUDE * np.sin(OMEGA * np.asarray(t) + PHASE)
+
+
+def MakeDiagram(params: SensorParams):
+    """Sensor fed by a constant motion power and a sinusoidal computation power."""
+    builder = DiagramBuilder()
+    sensor = builder.AddSystem(PowerSensor(params))
+    motion = builder.AddSystem(ConstantVectorSource([MOTION]))
+    sine = builder.AddSystem(Sine(AMPLITUDE, OMEGA, PHASE, 1))
+    offset = builder.AddSystem(ConstantVectorSource([OFFSET]))
+    adder = builder.AddSystem(Adder(2, 1))
+    builder.Connect(sine.get_output_port(0), adder.get_input_port(0))
+    builder.Connect(offset.get_output_port(), adder.get_input_port(1))
+    builder.Connect(motion.get_output_port(), sensor.GetInputPort("motion_power"))
+    builder.Connect(adder.get_output_port(), sensor.GetInputPort("computation_power"))
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    return sensor, simulator
+
+
+def Samples(sensor, simulator, count: int) -> np.ndarray:
+    """measured_power held after each of the first ``count`` samples (t_k + h/2, k = 0 …)."""
+    context = sensor.GetMyContextFromRoot(simulator.get_context())
+    h = sensor.period
+    out = np.empty(count)
+    for k in range(count):
+        simulator.AdvanceTo((k + 0.5) * h)
+        out[k] = sensor.GetOutputPort("measured_power").Eval(context)[0]
+    return out
+
+
+def test_ports_and_sizes():
+    sensor = PowerSensor(SensorParams())
+    assert sensor.num_input_ports() == 2 and sensor.num_output_ports() == 2
+    for name in ("motion_power", "computation_power"):
+        assert sensor.GetInputPort(name).size() == 1
+    for name in ("measured_power", "true_power"):
+        assert sensor.GetOutputPort(name).size() == 1
+    measured = sensor.GetOutputPort("measured_power").get_index()
+    true = sensor.GetOutputPort("true_power").get_index()
+    for i in range(2):
+        assert not sensor.HasDirectFeedthrough(i, measured)
+        assert sensor.HasDirectFeedthrough(i, true)
+    assert sensor.period == pytest.approx(0.01)
+
+
+def test_zero_noise_gives_the_exact_sum_sampled_and_held():
+    sensor, simulator = MakeDiagram(SensorParams(noise_std=0.0))
+    context = sensor.GetMyContextFromRoot(simulator.get_context())
+    # Before the first sample the output is NaN ("no sample yet"); true_power is always there.
+    assert math.isnan(sensor.GetOutputPort("measured_power").Eval(context)[0])
+    assert sensor.GetOutputPort("true_power").Eval(context)[0] == TruePower(0.0)
+    samples = Samples(sensor, simulator, 300)
+    t_k = np.arange(300) * sensor.period
+    np.testing.assert_allclose(samples, TruePower(t_k), rtol=0, atol=1e-12)
+    # Held between samples: at t_k + h/2 the true power has moved on, the sample has not.
+    assert sensor.GetOutputPort("true_power").Eval(context)[0] == pytest.approx(
+        TruePower(299.5 * sensor.period), abs=1e-12
+    )
+    assert abs(samples[-1] - TruePower(299.5 * sensor.period)) > 1e-4
+
+
+def test_noise_statistics_over_many_samples():
+    n = 200_000
+    params = SensorParams(noise_std=0.5, seed=7)
+    noise, dropped = NoiseSamples(params, 0, n)
+    assert not dropped.any()
+    # 5-sigma tolerances: mean ± 5·σ/√n = 0.0056 W, std ± 5·σ/√(2n) = 0.0040 W.
+    assert abs(noise.mean()) < 5 * 0.5 / math.sqrt(n)
+    assert abs(noise.std() - 0.5) < 5 * 0.5 / math.sqrt(2 * n)
+    # Gaussian shape: 68.27 % within one σ (± 5·√(p(1−p)/n) = 0.0052).
+    inside = np.mean(np.abs(noise) < 0.5)
+    assert abs(inside - 0.682689) < 5 * math.sqrt(0.682689 * 0.317311 / n)
+    # White: lag-1 autocorrelation ≈ 0 (± 5/√n), also across block boundaries.
+    rho = np.corrcoef(noise[:-1], noise[1:])[0, 1]
+    assert abs(rho) < 5 / math.sqrt(n)
+
+
+def test_dropout_fraction():
+    n = 200_000
+    _, dropped = NoiseSamples(SensorParams(dropout_probability=0.3, seed=3), 0, n)
+    assert abs(dropped.mean() - 0.3) < 5 * math.sqrt(0.3 * 0.7 / n)
+
+
+def test_draws_are_a_function_of_the_sample_index_only():
+    params = SensorParams(seed=11, dropout_probability=0.2)
+    noise, dropped = NoiseSamples(params, 0, 3 * BLOCK_SIZE)
+    first = BLOCK_SIZE - 50  # straddles a block boundary
+    part_noise, part_dropped = NoiseSamples(params, first, 100)
+    np.testing.assert_array_equal(part_noise, noise[first : first + 100])
+    np.testing.assert_array_equal(part_dropped, dropped[first : first + 100])
+    other, _ = NoiseSamples(SensorParams(seed=12), 0, 100)
+    assert not np.allclose(other, noise[:100])
+
+
+def test_system_samples_are_sum_plus_the_seeded_draws_and_reproducible():
+    params = SensorParams(noise_std=0.5, dropout_probability=0.25, seed=5)
+    count = 1500
+    noise, dropped = NoiseSamples(params, 0, count)
+    expected = np.where(dropped, np.nan, TruePower(np.arange(count) * 0.01) + noise)
+
+    sensor, simulator = MakeDiagram(params)
+    first = Samples(sensor, simulator, count)
+    np.testing.assert_allclose(first, expected, rtol=0, atol=1e-12)  # NaNs must match too
+    assert abs(np.isnan(first).mean() - 0.25) < 5 * math.sqrt(0.25 * 0.75 / count)
+
+    # A fresh diagram with the same seed, and the same simulator re-initialised, agree exactly.
+    sensor2, simulator2 = MakeDiagram(params)
+    np.testing.assert_array_equal(Samples(sensor2, simulator2, count), first)
+    simulator.get_mutable_context().SetTime(0.0)
+    simulator.get_mutable_context().SetDiscreteState(np.array([math.nan]))
+    simulator.Initialize()
+    np.testing.assert_array_equal(Samples(sensor, simulator, count), first)
+
+    # Another seed differs.
+    sensor3, simulator3 = MakeDiagram(SensorParams(noise_std=0.5, seed=6))
+    assert not np.allclose(Samples(sensor3, simulator3, 50), first[:50], equal_nan=True)
+
+
+def test_long_run_stays_finite_when_no_dropout():
+    params = SensorParams(noise_std=0.5, seed=1)
+    sensor, simulator = MakeDiagram(params)
+    context = sensor.GetMyContextFromRoot(simulator.get_context())
+    values = []
+    for t in np.arange(1.0, 100.0, 0.37):
+        simulator.AdvanceTo(t)
+        values.append(sensor.GetOutputPort("measured_power").Eval(context)[0])
+    values = np.array(values)
+    assert np.all(np.isfinite(values))
+    # Within 6σ of the true power range [27, 35] W.
+    assert np.all((values > 27.0 - 3.0) & (values < 35.0 + 3.0))
+
+
+@pytest.mark.parametrize(
+    "field, value, message",
+    [
+        ("rate", 0.0, "sensor.rate"),
+        ("rate", math.inf, "sensor.rate"),
+        ("noise_std", -0.1, "sensor.noise_std"),
+        ("dropout_probability", 1.0, "sensor.dropout_probability"),
+        ("dropout_probability", -0.1, "sensor.dropout_probability"),
+        ("seed", -1, "sensor.seed"),
+        ("seed", 1.5, "sensor.seed"),
+    ],
+)
+def test_bad_params_name_the_field(field, value, message):
+    params = SensorParams()
+    setattr(params, field, value)
+    with pytest.raises(ValueError, match=message):
+        PowerSensor(params)
