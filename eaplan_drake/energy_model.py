@@ -166,8 +166,9 @@ def EstimatePeriod(times, power, min_period: float | None = None, max_period: fl
     Method: resample on a uniform grid (the median sample spacing; linear interpolation; non-finite
     samples dropped), remove the mean, take the biased autocorrelation R(k) (via FFT, zero padded;
     biased so that R(T) > R(2T) > …), take the lag of the largest R(k) in
-    [min_period, max_period], then move to the nearby maximum of the unbiased R(k)/(n − k) and
-    refine it by a parabola through the peak and its two neighbours.
+    [min_period, max_period], then move to the nearby minimum of the mean squared difference
+    D(k) = mean_i (u(t_i + k dt) − u(t_i))² (zero at the period of a periodic signal): the smallest D within ±15 % of the lobe,
+    refined by the vertex of a least-squares parabola fitted to D over ±3 % around it.
     Defaults: min_period = the first lag where R turns negative (skips the lobe around lag 0),
     max_period = half the record (so that at least two periods are seen). Raises ValueError if
     there is no interior maximum in that range.
@@ -205,16 +206,21 @@ def EstimatePeriod(times, power, min_period: float | None = None, max_period: fl
             f"EstimatePeriod: no autocorrelation peak inside [{lo * dt:g}, {hi * dt:g}] s"
         )
     # The biased R picks the right lobe but its triangular weight (1 − k/n) pulls the peak to
-    # shorter lags; refine on the unbiased R(k)/(n − k) (hill-climb, then a parabola).
-    unbiased = acf / (n - np.arange(n))
-    while 1 < k < n - 2:
-        if unbiased[k + 1] > unbiased[k]:
-            k += 1
-        elif unbiased[k - 1] > unbiased[k]:
-            k -= 1
-        else:
-            break
-    left, mid, right = unbiased[k - 1], unbiased[k], unbiased[k + 1]
-    curvature = left - 2.0 * mid + right
-    shift = 0.5 * (left - right) / curvature if curvature < 0.0 else 0.0
+    # shorter lags; refine on the mean squared difference D(k) = mean_i (u_{i+k} − u_i)², which
+    # vanishes exactly at the period of a periodic signal.
+    energy = np.concatenate(([0.0], np.cumsum(u * u)))
+    lags = np.arange(n)
+    head = energy[n - lags]  # Σ_{i < n−k} u_i²
+    tail = energy[n] - energy[lags]  # Σ_{i ≥ k} u_i²
+    diff = (head + tail - 2.0 * acf) / (n - lags)
+    # Noise makes D rough near its flat minimum: take the smallest D within ±15 % of the lobe,
+    # then the vertex of a least-squares parabola through D on ±3 % around it.
+    a, b = max(1, int(0.85 * k)), min(n - 2, int(math.ceil(1.15 * k)))
+    k = a + int(np.argmin(diff[a : b + 1]))
+    w = max(2, int(0.03 * k))
+    a, b = max(1, k - w), min(n - 1, k + w)
+    x = np.arange(a, b + 1) - k
+    c2, c1, _ = np.polyfit(x, diff[a : b + 1], 2)
+    shift = -0.5 * c1 / c2 if c2 > 0.0 else 0.0
+    shift = min(max(shift, float(x[0])), float(x[-1]))
     return (k + shift) * dt

@@ -158,7 +158,9 @@ def test_period_estimate_on_synthetic_signal():
         b = np.array([-20.0, 30.0, 5.0])
         t = np.sort(rng.uniform(0.0, 5 * T, 2000))  # irregular sampling
         y = _series(t, 31.0 * T, a, b, T) + rng.normal(0.0, 0.5, t.size)
-        assert EstimatePeriod(t, y) == pytest.approx(T, rel=0.01)
+        assert EstimatePeriod(t, y) == pytest.approx(T, rel=0.005)
+        t = np.arange(0.0, 2.5 * T, 0.1)  # clean, regular, only 2.5 periods
+        assert EstimatePeriod(t, _series(t, 31.0 * T, a, b, T)) == pytest.approx(T, rel=5e-4)
 
 
 def test_period_estimate_errors():
