@@ -166,9 +166,10 @@ def EstimatePeriod(times, power, min_period: float | None = None, max_period: fl
     Method: resample on a uniform grid (the median sample spacing; linear interpolation; non-finite
     samples dropped), remove the mean, take the biased autocorrelation R(k) (via FFT, zero padded;
     biased so that R(T) > R(2T) > …), take the lag of the largest R(k) in
-    [min_period, max_period], then move to the nearby minimum of the mean squared difference
-    D(k) = mean_i (u(t_i + k dt) − u(t_i))² (zero at the period of a periodic signal): the smallest D within ±15 % of the lobe,
-    refined by the vertex of a least-squares parabola fitted to D over ±3 % around it.
+    [min_period, max_period]; then refine on the mean squared difference
+    D(k) = mean_i (u(t_i + k dt) − u(t_i))², zero at the period of a periodic signal: the
+    smallest D within ±15 % of that lag, refined by the vertex of a least-squares parabola
+    fitted to D over ±3 % around it (robust to noise, no triangular-window bias).
     Defaults: min_period = the first lag where R turns negative (skips the lobe around lag 0),
     max_period = half the record (so that at least two periods are seen). Raises ValueError if
     there is no interior maximum in that range.
