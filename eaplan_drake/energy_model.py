@@ -23,11 +23,13 @@ unlike forward Euler), and q⁺ = A_d q + B Δg.
 import math
 
 import numpy as np
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 __all__ = [
     "DiscreteFourierMatrices",
     "EstimatePeriod",
     "FitFourierSeries",
+    "FourierEnergyModel",
     "FourierMatrices",
     "FourierOutputMatrix",
     "FourierStateFromCoefficients",
@@ -225,3 +227,120 @@ def EstimatePeriod(times, power, min_period: float | None = None, max_period: fl
     shift = -0.5 * c1 / c2 if c2 > 0.0 else 0.0
     shift = min(max(shift, float(x[0])), float(x[-1]))
     return (k + shift) * dt
+
+
+class FourierEnergyModel(LeafSystem):
+    """Discrete periodic energy model q⁺ = A_d(T) q + B Δg, y = C q (paper 003 Eqs. 3–12).
+
+    Scaled form of DESIGN.md: q = [α0, α1, β1, …, αr, βr] [W], y = α0 + Σ_j α_j [W] (Lemma III.1:
+    y is the Fourier series of period T whose coefficients q(0) encodes). Drake's discrete
+    convention with updates at t_k = k h (``time_step`` h [s]): the state at t_k is q(t_k), and the
+    update at t_k computes q(t_{k+1}) = A_d(T) q(t_k) + B Δg_k from it and the inputs at t_k, with
+    A_d = expm(A(T) h) the exact rotation and Δg_k = g(t_k) − g(t_{k−1}) [W] the change of the
+    ``computation_power`` input since the previous update (so y rises by exactly Δg, visible from
+    t_{k+1}). The ``period`` input T [s] is read at every update; a new (finite, positive) value
+    re-discretises A_d and only changes the rotation speed from then on (q is kept, so y has no
+    jump). Non-finite inputs are ignored (Δg = 0, T kept).
+
+    Discrete state: [q (m), g at the previous update, T in use]; an initialization event takes
+    g and T from the inputs at t = 0. Outputs depend on the state only.
+
+    .. pydrake_system::
+
+        name: FourierEnergyModel
+        input_ports:
+        - computation_power
+        - period
+        output_ports:
+        - energy_coefficients
+        - power
+    """
+
+    def __init__(
+        self,
+        order: int,
+        initial_period: float,
+        initial_q=None,
+        time_step: float = 0.01,
+    ):
+        super().__init__()
+        r = _check_order(order)
+        T0 = _check_positive(initial_period, "initial_period")
+        h = _check_positive(time_step, "time_step")
+        m = 2 * r + 1
+        if initial_q is None:
+            q0 = np.zeros(m)
+        else:
+            q0 = np.asarray(initial_q, dtype=float).reshape(-1)
+            if q0.size != m or not np.all(np.isfinite(q0)):
+                raise ValueError(
+                    f"initial_q: must be {m} finite values (m = 2r + 1 for order {r}), got {q0}"
+                )
+        self._order = r
+        self._m = m
+        self._h = h
+        self._Ad_period = T0
+        self._Ad = DiscreteFourierMatrices(r, T0, h)[0]
+        self._alpha = np.arange(1, m, 2)  # indices of α_1..α_r in q
+        state = np.concatenate([q0, [np.nan, T0]])
+        self._state_index = self.DeclareDiscreteState(state)
+        self._computation_power_port = self.DeclareVectorInputPort("computation_power", 1)
+        self._period_port = self.DeclareVectorInputPort("period", 1)
+        self.DeclareInitializationDiscreteUpdateEvent(self._Initialize)
+        self.DeclarePeriodicDiscreteUpdateEvent(h, 0.0, self._Update)
+        xd = {self.xd_ticket()}
+        self._energy_coefficients_port = self.DeclareVectorOutputPort(
+            "energy_coefficients", m, self._CalcCoefficients, prerequisites_of_calc=xd
+        )
+        self._power_port = self.DeclareVectorOutputPort(
+            "power", 1, self._CalcPower, prerequisites_of_calc=xd
+        )
+
+    @property
+    def order(self) -> int:
+        return self._order
+
+    @property
+    def time_step(self) -> float:
+        return self._h
+
+    def _TransitionMatrix(self, period: float) -> np.ndarray:
+        if period != self._Ad_period:  # cache of a pure function of T
+            self._Ad = DiscreteFourierMatrices(self._order, period, self._h)[0]
+            self._Ad_period = period
+        return self._Ad
+
+    def _Initialize(self, context: Context, discrete_state: DiscreteValues) -> None:
+        x = context.get_discrete_state(self._state_index).get_value().copy()
+        g = self._computation_power_port.Eval(context)[0]
+        T = self._period_port.Eval(context)[0]
+        x[self._m] = g if math.isfinite(g) else np.nan
+        if math.isfinite(T) and T > 0.0:
+            x[self._m + 1] = T
+        discrete_state.get_mutable_vector(self._state_index).SetFromVector(x)
+
+    def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
+        m = self._m
+        x = context.get_discrete_state(self._state_index).get_value()
+        g = self._computation_power_port.Eval(context)[0]
+        T = self._period_port.Eval(context)[0]
+        if not (T > 0.0 and math.isfinite(T)):
+            T = x[m + 1]
+        new = np.empty(m + 2)
+        new[:m] = self._TransitionMatrix(T) @ x[:m]
+        g_prev = x[m]
+        if math.isfinite(g):
+            if math.isfinite(g_prev):
+                new[0] += g - g_prev
+            new[m] = g
+        else:
+            new[m] = g_prev
+        new[m + 1] = T
+        discrete_state.get_mutable_vector(self._state_index).SetFromVector(new)
+
+    def _CalcCoefficients(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(context.get_discrete_state(self._state_index).get_value()[: self._m])
+
+    def _CalcPower(self, context: Context, output: BasicVector) -> None:
+        x = context.get_discrete_state(self._state_index).get_value()
+        output.SetAtIndex(0, x[0] + x[self._alpha].sum())

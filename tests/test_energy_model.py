@@ -5,11 +5,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
 from eaplan_drake.energy_model import (
     DiscreteFourierMatrices,
     EstimatePeriod,
     FitFourierSeries,
+    FourierEnergyModel,
     FourierMatrices,
     FourierStateFromCoefficients,
 )
@@ -178,3 +182,165 @@ def test_period_estimate_on_authors_plan_I_log():
     first = t <= 200.0  # about four periods, as available early in flight
     assert EstimatePeriod(t[first], y[first]) == pytest.approx(46.0, abs=1.0)
     assert EstimatePeriod(t, y) == pytest.approx(46.0, abs=1.0)
+
+
+# -- FourierEnergyModel ---------------------------------------------------------------------------
+
+
+def _standalone(model, g, T):
+    """A Simulator on the model alone with fixed inputs (change them between AdvanceTo calls)."""
+    simulator = Simulator(model)
+    context = simulator.get_mutable_context()
+    model.GetInputPort("computation_power").FixValue(context, [g])
+    model.GetInputPort("period").FixValue(context, [T])
+    simulator.Initialize()
+    return simulator, context
+
+
+def _power(model, context):
+    return model.GetOutputPort("power").Eval(context)[0]
+
+
+def test_model_ports_and_outputs_match_pure_functions():
+    q0 = np.arange(1.0, 8.0)
+    model = FourierEnergyModel(3, 46.0, q0, 0.01)
+    assert [model.get_input_port(i).get_name() for i in range(2)] == [
+        "computation_power",
+        "period",
+    ]
+    assert model.GetInputPort("computation_power").size() == 1
+    assert model.GetInputPort("period").size() == 1
+    assert model.GetOutputPort("energy_coefficients").size() == 7
+    assert model.GetOutputPort("power").size() == 1
+    # outputs depend on the state only (no algebraic loop through the inputs)
+    assert not model.HasDirectFeedthrough(0, 0) and not model.HasDirectFeedthrough(1, 1)
+    context = model.CreateDefaultContext()
+    np.testing.assert_array_equal(model.GetOutputPort("energy_coefficients").Eval(context), q0)
+    _, _, C = FourierMatrices(3, 46.0)
+    assert _power(model, context) == pytest.approx((C @ q0)[0], abs=1e-12)
+    # 250 steps of the system equal 250 steps of the pure matrices
+    simulator, context = _standalone(model, 4.0, 46.0)
+    simulator.AdvanceTo(2.5)
+    Ad, _ = DiscreteFourierMatrices(3, 46.0, 0.01)
+    np.testing.assert_allclose(
+        model.GetOutputPort("energy_coefficients").Eval(context),
+        np.linalg.matrix_power(Ad, 250) @ q0,
+        atol=1e-12,
+    )
+
+
+def test_model_lemma_III_1_in_a_diagram_over_20_periods():
+    rng = np.random.default_rng(21)
+    r, T, h = 3, 20.0, 0.01
+    a0, a, b = 31.0 * T, rng.normal(0.0, 40.0, r), rng.normal(0.0, 40.0, r)
+    builder = DiagramBuilder()
+    model = builder.AddSystem(
+        FourierEnergyModel(r, T, FourierStateFromCoefficients(a0, a, b, T), h)
+    )
+    g = builder.AddSystem(ConstantVectorSource([6.0]))
+    period = builder.AddSystem(ConstantVectorSource([T]))
+    builder.Connect(g.get_output_port(), model.GetInputPort("computation_power"))
+    builder.Connect(period.get_output_port(), model.GetInputPort("period"))
+    logger = LogVectorOutput(model.GetOutputPort("power"), builder, h)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(20 * T)
+    log = logger.FindLog(simulator.get_context())
+    t, y = log.sample_times(), log.data()[0]
+    assert t[-1] == pytest.approx(20 * T) and t.size > 20 * T / h
+    truth = _series(t, a0, a, b, T)
+    assert np.all(np.isfinite(y))
+    assert np.max(np.abs(y - truth) / np.abs(truth)) < 1e-9
+
+
+def test_model_amplitude_preserved_over_1e5_steps():
+    rng = np.random.default_rng(4)
+    q0 = rng.normal(0.0, 3.0, 7)
+    q0[0] = 30.0
+    model = FourierEnergyModel(3, 46.0, q0, 0.01)
+    simulator, context = _standalone(model, 5.0, 46.0)
+    simulator.AdvanceTo(1000.0)  # 1e5 updates
+    q = model.GetOutputPort("energy_coefficients").Eval(context)
+    for j in range(1, 4):
+        assert math.hypot(q[2 * j - 1], q[2 * j]) == pytest.approx(
+            math.hypot(q0[2 * j - 1], q0[2 * j]), rel=1e-10
+        )
+    assert q[0] == q0[0]  # constant computation power: no Δg
+    np.testing.assert_allclose(q, _expm(FourierMatrices(3, 46.0)[0] * 1000.0) @ q0, atol=1e-8)
+
+
+def test_model_computation_step_raises_output_by_exactly_delta_g():
+    rng = np.random.default_rng(8)
+    q0 = rng.normal(0.0, 2.0, 7)
+    q0[0] = 25.0
+    runs = []
+    for g_after in (5.0, 7.5):
+        model = FourierEnergyModel(3, 46.0, q0, 0.01)
+        simulator, context = _standalone(model, 5.0, 46.0)
+        simulator.AdvanceTo(3.0)
+        model.GetInputPort("computation_power").FixValue(context, [g_after])
+        ys = []
+        for k in range(1, 200):
+            simulator.AdvanceTo(3.0 + 0.01 * k)
+            ys.append(_power(model, context))
+        runs.append(np.array(ys))
+    np.testing.assert_allclose(runs[1] - runs[0], 2.5, atol=1e-12)
+
+
+def test_model_new_period_takes_effect_without_jump():
+    rng = np.random.default_rng(12)
+    q0 = rng.normal(0.0, 3.0, 7)
+    q0[0] = 30.0
+    h, T1, T2 = 0.01, 46.0, 23.0
+    model = FourierEnergyModel(3, T1, q0, h)
+    simulator, context = _standalone(model, 5.0, T1)
+    ys = []
+    for k in range(1, 1001):
+        simulator.AdvanceTo(k * h)
+        ys.append(_power(model, context))
+    q_switch = model.GetOutputPort("energy_coefficients").Eval(context).copy()
+    model.GetInputPort("period").FixValue(context, [T2])
+    for k in range(1001, 2001):
+        simulator.AdvanceTo(k * h)
+        ys.append(_power(model, context))
+    dy = np.abs(np.diff(ys))
+    # no jump: the step across the switch is a normal one-step increment of the faster model
+    w2 = 2 * math.pi / T2
+    bound = h * sum(w2 * j * math.hypot(q0[2 * j - 1], q0[2 * j]) for j in range(1, 4))
+    assert dy[999] <= bound
+    assert np.max(dy) <= bound
+    # after the switch the state follows the new period exactly
+    q_now = model.GetOutputPort("energy_coefficients").Eval(context)
+    Ad2, _ = DiscreteFourierMatrices(3, T2, h)
+    np.testing.assert_allclose(q_now, np.linalg.matrix_power(Ad2, 1000) @ q_switch, atol=1e-10)
+    assert context.get_discrete_state(0).get_value()[-1] == T2
+
+
+def test_model_ignores_non_finite_inputs():
+    q0 = np.array([30.0, 1.0, 0.0, 0.5, 0.5, 0.0, 0.2])
+    model = FourierEnergyModel(3, 46.0, q0, 0.01)
+    simulator, context = _standalone(model, 5.0, 46.0)
+    simulator.AdvanceTo(1.0)
+    model.GetInputPort("computation_power").FixValue(context, [np.nan])
+    model.GetInputPort("period").FixValue(context, [np.inf])
+    simulator.AdvanceTo(2.0)
+    model.GetInputPort("period").FixValue(context, [-3.0])
+    simulator.AdvanceTo(3.0)
+    q = model.GetOutputPort("energy_coefficients").Eval(context)
+    Ad, _ = DiscreteFourierMatrices(3, 46.0, 0.01)
+    np.testing.assert_allclose(q, np.linalg.matrix_power(Ad, 300) @ q0, atol=1e-10)
+    # computation power comes back: Δg relative to the last finite value
+    model.GetInputPort("computation_power").FixValue(context, [6.0])
+    simulator.AdvanceTo(3.01)
+    assert model.GetOutputPort("energy_coefficients").Eval(context)[0] == pytest.approx(31.0)
+
+
+def test_model_bad_constructor_arguments():
+    with pytest.raises(ValueError, match="order"):
+        FourierEnergyModel(-1, 46.0)
+    with pytest.raises(ValueError, match="initial_period"):
+        FourierEnergyModel(3, 0.0)
+    with pytest.raises(ValueError, match="time_step"):
+        FourierEnergyModel(3, 46.0, time_step=0.0)
+    with pytest.raises(ValueError, match="initial_q"):
+        FourierEnergyModel(3, 46.0, np.zeros(5))
