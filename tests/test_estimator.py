@@ -223,6 +223,13 @@ def test_estimator_equals_textbook_kalman_filter():
         P = A @ P @ A.T + Q
     assert logs.shape == (7, n)
     np.testing.assert_allclose(logs.T, expected, rtol=0.0, atol=1e-9)
+    # and the pure KalmanStep gives the same sequence
+    q, P = q_init.copy(), params.initial_covariance * np.eye(7)
+    for i in range(n):
+        np.testing.assert_allclose(q, expected[i], rtol=0.0, atol=1e-9)
+        dg = g[i] - g[i - 1] if i > 0 else 0.0
+        A = _rotation(3, periods[i], H)
+        q, P = KalmanStep(q, P, z[i], dg, A, C, Q, params.measurement_noise)
 
 
 def test_estimator_convergence_on_reference_like_signal():
