@@ -343,7 +343,10 @@ class PlannerParams:
     computation_weight: float = 1.0
     """Weight of the squared normalised computation parameters [-]."""
     slack_weight: float = 1e4
-    """Penalty on the output-constraint slack [1/W²]."""
+    """Exact (L1) penalty on the output-constraint slack: cost slack_weight·Σ s_k [1/W]."""
+    power_model: str = "quadratic"
+    """Smooth g(c) inside the NLP: "quadratic" (least-squares fit to the table) or "linear"
+    (Eq. 11 scaling factors). Grid mapping and predictions always use the exact table."""
     max_wall_time: float = 0.25
     """IPOPT wall-time limit per solve [s]."""
     max_iterations: int = 100
@@ -367,6 +370,11 @@ class PlannerParams:
         _nonnegative(self.path_weight, f"{key}.path_weight")
         _nonnegative(self.computation_weight, f"{key}.computation_weight")
         _positive(self.slack_weight, f"{key}.slack_weight")
+        _check(
+            self.power_model in ("quadratic", "linear"),
+            f"{key}.power_model",
+            f'must be "quadratic" or "linear", got {self.power_model!r}',
+        )
         _positive(self.max_wall_time, f"{key}.max_wall_time")
         _check(
             isinstance(self.max_iterations, int) and self.max_iterations >= 1,

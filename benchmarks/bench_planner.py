@@ -1,0 +1,119 @@
+"""Benchmark of one planner-scheduler step (NLP + integer mapping + path rule).
+
+Replays a few hundred planner steps of a synthetic, reference-like closed loop: periodic motion
+power (T = 46 s, mean ≈ 21 W, three harmonics), the PedNet computation table, the reference Rint
+battery with the plan i faults (−6 % at 93 s, −9 % at 270 s), a noisy energy estimate q̂, and the
+coverage fraction advancing at 1/t(c1) per second. Starts after the warm-up (t = 92 s) from the
+plan i (c1 = 0, c2 = 10) and plan ii (c1 = −1000, c2 = 2) configurations. Prints the median and
+95th percentile of the IPOPT solve time and of the whole step, and the failure count. Not a test.
+
+    python3 benchmarks/bench_planner.py [--steps 300] [--cold]
+"""
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from eaplan_drake.battery import SocDerivative
+from eaplan_drake.computation import LoadComputationTable
+from eaplan_drake.energy_model import DiscreteFourierMatrices
+from eaplan_drake.params import BatteryFault, BatteryParams, PlannerParams
+from eaplan_drake.planner import Planner
+
+PERIOD = 46.0
+ORDER = 3
+COVERAGE_TIMES = (270.0, 706.0)
+WARMUP = 92.0
+
+
+def Replay(planner: Planner, c1: float, c2: float, steps: int, seed: int, cold: bool):
+    """Runs the synthetic loop; returns (solve times, step times, failures, infeasible, trace)."""
+    rng = np.random.default_rng(seed)
+    table, battery, h = planner.table, planner.battery, planner.step
+    faults = sorted((f.time, f.soc_drop) for f in battery.faults)
+    # Motion power: mean 21 W plus harmonics (turn peaks) [W], in the scaled state form.
+    q = np.array([21.0, 4.0, 2.5, 2.0, -1.0, 0.8, 0.5]) + rng.normal(0.0, 0.3, 7)
+    c2 = np.array([c2])
+    q[0] += table.power(c2)
+    Ad_fine, _ = DiscreteFourierMatrices(ORDER, PERIOD, 0.01)
+    soc, t, fraction = 1.0, 0.0, 1.0
+    # Warm-up with the initial parameters (battery drains, coverage advances).
+    warm = None
+    solve_times, step_times, failures, infeasible, trace = [], [], 0, 0, []
+
+    def advance(duration):
+        nonlocal q, soc, t, fraction
+        for _ in range(round(duration / 0.01)):
+            soc += 0.01 * SocDerivative(q[0] + q[1] + q[3] + q[5], battery)
+            q = Ad_fine @ q
+            t += 0.01
+            while faults and faults[0][0] <= t + 1e-9:
+                soc -= faults.pop(0)[1]
+            fraction = max(fraction - 0.01 / planner.coverage_time(c1), 0.0)
+
+    advance(WARMUP)
+    for _ in range(steps):
+        q_hat = q + rng.normal(0.0, 0.2, q.size)  # estimation error [W]
+        t0 = time.perf_counter()
+        sol = planner.Plan(q_hat, soc, PERIOD, fraction, c2, c1, None if cold else warm)
+        step_times.append(time.perf_counter() - t0)
+        solve_times.append(sol.solve_time)
+        failures += not sol.success
+        infeasible += sol.success and not sol.feasible
+        warm = sol.warm_start
+        q[0] += table.power(sol.computation_parameters) - table.power(c2)  # B Δg
+        c1, c2 = sol.path_parameter, sol.computation_parameters
+        trace.append((t, soc, fraction, c1, c2[0], sol.time_to_reserve))
+        advance(h)
+        if fraction <= 0.0 or soc <= battery.reserve_soc:
+            break
+    return solve_times, step_times, failures, infeasible, trace
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--steps", type=int, default=300, help="planner steps per start")
+    parser.add_argument("--cold", action="store_true", help="no warm start")
+    args = parser.parse_args()
+
+    table = LoadComputationTable("pednet_jetson_nano")
+    battery = BatteryParams(
+        faults=[BatteryFault(time=93.0, soc_drop=0.06), BatteryFault(time=270.0, soc_drop=0.09)]
+    )
+    solve, step, fail, infeasible, n = [], [], 0, 0, 0
+    for name, c1, c2, seed in (("plan i ", 0.0, 10.0, 1), ("plan ii", -1000.0, 2.0, 2)):
+        planner = Planner(PlannerParams(), table, ORDER, battery, COVERAGE_TIMES)
+        planner.Plan(np.r_[30.0, np.zeros(6)], 1.0, PERIOD, 1.0, [c2], c1)  # first-call setup
+        s, w, f, i, trace = Replay(planner, c1, c2, args.steps, seed, args.cold)
+        solve += s
+        step += w
+        fail += f
+        infeasible += i
+        n += len(s)
+        last = trace[-1]
+        c2s = sorted({float(row[4]) for row in trace})
+        print(
+            f"{name}: {len(s)} steps, t = {trace[0][0]:.0f}…{last[0]:.0f} s, final SoC "
+            f"{last[1]:.3f}, coverage left {last[2]:.2f}, c1 {last[3]:.0f}, c2 values {c2s}"
+        )
+    ms = 1e3 * np.array(solve)
+    ws = 1e3 * np.array(step)
+    print(f"steps            {n}  ({'cold' if args.cold else 'warm'} start)")
+    print(
+        f"IPOPT solve      median {np.median(ms):.1f} ms, p95 {np.percentile(ms, 95):.1f} ms, "
+        f"max {ms.max():.1f} ms"
+    )
+    print(
+        f"planner step     median {np.median(ws):.1f} ms, p95 {np.percentile(ws, 95):.1f} ms, "
+        f"max {ws.max():.1f} ms"
+    )
+    print(f"failures         {fail}")
+    print(f"infeasible steps {infeasible} (lowest c2 still above the budget: slack used)")
+    if not math.isfinite(np.median(ws)):
+        raise SystemExit(1)
+
+
+if __name__ == "__main__":
+    main()
