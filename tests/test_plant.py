@@ -1,0 +1,295 @@
+"""FixedWingPlant and its pure functions: kinematics, turn-rate limit, load factor, motion power."""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, InitializeAutoDiff
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
+
+from eaplan_drake.guidance import HeadingRateCommand
+from eaplan_drake.params import MotionPowerParams, ScenarioError, VehicleParams
+from eaplan_drake.paths import Circle, Line
+from eaplan_drake.plant import (
+    GRAVITY,
+    FixedWingDynamics,
+    FixedWingPlant,
+    GroundVelocity,
+    LoadFactor,
+    MaxHeadingRate,
+    MotionPower,
+    MotionPowerRange,
+    WrapToPi,
+)
+
+VA = 15.0
+WIND = 5.0
+P_COMPUTATION_10FPS = 10.2112  # PedNet on the Jetson Nano at 10 fps (packaged powprofiler table)
+P_COMPUTATION_2FPS = 5.21438
+
+
+# -- pure functions -----------------------------------------------------------------------------
+
+
+def test_max_heading_rate_from_bank_angle():
+    assert MaxHeadingRate(15.0, math.radians(45.0)) == pytest.approx(9.81 / 15.0, rel=1e-12)
+    assert MaxHeadingRate(VehicleParams()) == pytest.approx(9.81 / 15.0, rel=1e-12)
+    v = VehicleParams(airspeed=20.0, max_bank_angle_deg=30.0)
+    assert MaxHeadingRate(v) == pytest.approx(9.81 * math.tan(math.pi / 6) / 20.0, rel=1e-12)
+    with pytest.raises(ValueError, match="airspeed"):
+        MaxHeadingRate(0.0, 0.5)
+    with pytest.raises(ValueError, match="max_bank_angle"):
+        MaxHeadingRate(15.0, math.pi / 2)
+    with pytest.raises(ValueError, match="max_bank_angle"):
+        MaxHeadingRate(15.0)
+
+
+def test_load_factor_is_inverse_cosine_of_bank():
+    for phi_deg in (0.0, 10.0, 30.0, 45.0, 60.0):
+        phi = math.radians(phi_deg)
+        rate = GRAVITY * math.tan(phi) / VA  # coordinated turn at bank φ
+        assert LoadFactor(VA, rate) == pytest.approx(1.0 / math.cos(phi), rel=1e-12)
+    assert LoadFactor(VA, -0.3) == pytest.approx(LoadFactor(VA, 0.3))
+
+
+def test_motion_power_model():
+    mp = MotionPowerParams(level_power=25.0, induced_fraction=0.5)
+    assert MotionPower(VA, 0.0, mp) == pytest.approx(25.0)
+    # At 45° bank n² = 2: P = P_level (1 − f + 2 f).
+    rate = MaxHeadingRate(VA, math.radians(45.0))
+    assert MotionPower(VA, rate, mp) == pytest.approx(25.0 * 1.5, rel=1e-12)
+    n = LoadFactor(VA, 0.2)
+    assert MotionPower(VA, -0.2, mp) == pytest.approx(25.0 * (0.5 + 0.5 * n**2), rel=1e-12)
+    lo, hi = MotionPowerRange(VehicleParams(motion_power=mp))
+    assert (lo, hi) == pytest.approx((25.0, 37.5), rel=1e-12)
+    rates = np.linspace(-1.0, 1.0, 5)
+    np.testing.assert_allclose(
+        MotionPower(VA, rates, mp), [MotionPower(VA, r, mp) for r in rates], rtol=1e-15
+    )
+
+
+def test_dynamics_and_saturation():
+    rmax = MaxHeadingRate(VA, math.radians(45.0))
+    x = np.array([1.0, 2.0, 0.3])
+    w = np.array([5.0, -1.0])
+    f = FixedWingDynamics(x, 0.1, w, VA, rmax)
+    np.testing.assert_allclose(f, [VA * math.cos(0.3) + 5.0, VA * math.sin(0.3) - 1.0, 0.1])
+    assert FixedWingDynamics(x, 5.0, w, VA, rmax)[2] == pytest.approx(rmax)
+    assert FixedWingDynamics(x, -5.0, w, VA, rmax)[2] == pytest.approx(-rmax)
+    np.testing.assert_allclose(GroundVelocity(0.3, w, VA), f[:2], rtol=1e-15)
+    assert WrapToPi(3 * math.pi + 0.1) == pytest.approx(-math.pi + 0.1)
+    assert WrapToPi(-0.2) == pytest.approx(-0.2)
+
+
+# -- the Drake system ---------------------------------------------------------------------------
+
+
+def test_ports_and_feedthrough():
+    plant = FixedWingPlant(VehicleParams())
+    inputs = {"heading_rate_command": 1, "wind": 2}
+    outputs = {"position": 2, "heading": 1, "ground_velocity": 2, "motion_power": 1}
+    assert plant.num_input_ports() == len(inputs)
+    assert plant.num_output_ports() == len(outputs)
+    for name, size in inputs.items():
+        assert plant.GetInputPort(name).size() == size
+    for name, size in outputs.items():
+        assert plant.GetOutputPort(name).size() == size
+    assert plant.get_heading_rate_command_input_port().get_name() == "heading_rate_command"
+    assert plant.get_wind_input_port().get_name() == "wind"
+    assert plant.get_motion_power_output_port().get_name() == "motion_power"
+    u = plant.GetInputPort("heading_rate_command").get_index()
+    w = plant.GetInputPort("wind").get_index()
+
+    def feed(i, name):
+        return plant.HasDirectFeedthrough(i, plant.GetOutputPort(name).get_index())
+
+    # No dependency of position / heading / ground velocity on the command: no algebraic loop.
+    for name in ("position", "heading", "ground_velocity"):
+        assert not feed(u, name)
+    assert feed(w, "ground_velocity")
+    assert not feed(w, "position") and not feed(w, "heading")
+    assert feed(u, "motion_power") and not feed(w, "motion_power")
+    assert plant.num_continuous_states() == 3
+    assert plant.max_heading_rate() == pytest.approx(9.81 / 15.0)
+
+
+def test_default_state_and_bad_vehicle():
+    v = VehicleParams(initial_position=[-100.0, 220.0], initial_heading_deg=270.0)
+    plant = FixedWingPlant(v)
+    ctx = plant.CreateDefaultContext()
+    np.testing.assert_allclose(
+        ctx.get_continuous_state_vector().CopyToVector(), [-100.0, 220.0, 1.5 * math.pi]
+    )
+    plant.SetPose(ctx, [1.0, 2.0], 0.5)
+    np.testing.assert_allclose(ctx.get_continuous_state_vector().CopyToVector(), [1, 2, 0.5])
+    with pytest.raises(ScenarioError, match=r"vehicle\.airspeed"):
+        FixedWingPlant(VehicleParams(airspeed=0.0))
+    with pytest.raises(ScenarioError, match=r"vehicle\.max_bank_angle_deg.*\[0\.001, 80\]"):
+        FixedWingPlant(VehicleParams(max_bank_angle_deg=85.0))
+    with pytest.raises(ScenarioError, match=r"motion_power\.induced_fraction"):
+        FixedWingPlant(VehicleParams(motion_power=MotionPowerParams(induced_fraction=1.5)))
+
+
+def test_outputs_match_pure_functions():
+    vehicle = VehicleParams()
+    plant = FixedWingPlant(vehicle)
+    rmax = plant.max_heading_rate()
+    ctx = plant.CreateDefaultContext()
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        x = rng.uniform([-200, -200, -20], [200, 200, 20])
+        u = rng.uniform(-2.0, 2.0)
+        w = rng.uniform(-5.0, 5.0, 2)
+        plant.SetPose(ctx, x[:2], x[2])
+        plant.get_input_port(0).FixValue(ctx, [u])
+        plant.get_input_port(1).FixValue(ctx, w)
+        np.testing.assert_allclose(
+            plant.EvalTimeDerivatives(ctx).CopyToVector(),
+            FixedWingDynamics(x, u, w, VA, rmax),
+            rtol=1e-14,
+            atol=1e-12,
+        )
+        np.testing.assert_allclose(plant.GetOutputPort("position").Eval(ctx), x[:2], rtol=1e-15)
+        assert plant.GetOutputPort("heading").Eval(ctx)[0] == x[2]  # not wrapped
+        np.testing.assert_allclose(
+            plant.GetOutputPort("ground_velocity").Eval(ctx),
+            GroundVelocity(x[2], w, VA),
+            rtol=1e-14,
+            atol=1e-12,
+        )
+        u_sat = min(max(u, -rmax), rmax)
+        assert plant.GetOutputPort("motion_power").Eval(ctx)[0] == pytest.approx(
+            MotionPower(VA, u_sat, vehicle.motion_power), rel=1e-13
+        )
+
+
+def test_autodiff_jacobians():
+    plant = FixedWingPlant(VehicleParams())
+    ad = plant.ToAutoDiffXd()
+    ctx = ad.CreateDefaultContext()
+    psi, u, w = 0.7, 0.2, np.array([3.0, -4.0])
+    # Independent variables z = (x, y, ψ, u, w_x, w_y).
+    z = InitializeAutoDiff(np.array([10.0, 20.0, psi, u, *w]))
+    ctx.SetContinuousState(z[:3, 0])
+    ad.get_input_port(0).FixValue(ctx, z[3:4, 0])
+    ad.get_input_port(1).FixValue(ctx, z[4:6, 0])
+    f = ad.EvalTimeDerivatives(ctx).CopyToVector()
+    expected = np.zeros((3, 6))
+    expected[0, 2], expected[1, 2] = -VA * math.sin(psi), VA * math.cos(psi)
+    expected[2, 3] = 1.0  # inside the limit
+    expected[0, 4] = expected[1, 5] = 1.0
+    np.testing.assert_allclose(ExtractGradient(f), expected, atol=1e-14)
+    assert f[0].value() == pytest.approx(VA * math.cos(psi) + w[0])
+    k = VA / GRAVITY
+    power = ad.GetOutputPort("motion_power").Eval(ctx)[0]
+    assert isinstance(power, AutoDiffXd)
+    np.testing.assert_allclose(  # dP/du = 2 P_level f k² u
+        power.derivatives(), [0, 0, 0, 2 * 25.0 * 0.5 * k * k * u, 0, 0], atol=1e-12
+    )
+    # Saturated: the command no longer moves ψ̇.
+    ad.get_input_port(0).FixValue(ctx, [AutoDiffXd(5.0, np.array([0, 0, 0, 1.0, 0, 0]))])
+    f = ad.EvalTimeDerivatives(ctx).CopyToVector()
+    assert f[2].value() == pytest.approx(plant.max_heading_rate())
+    np.testing.assert_allclose(f[2].derivatives(), 0.0, atol=0)
+    assert plant.ToSymbolic().num_continuous_states() == 3
+
+
+def _Build(vehicle, command, wind):
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(FixedWingPlant(vehicle))
+    u = builder.AddSystem(ConstantVectorSource([command]))
+    w = builder.AddSystem(ConstantVectorSource(np.asarray(wind, dtype=float)))
+    builder.Connect(u.get_output_port(), plant.GetInputPort("heading_rate_command"))
+    builder.Connect(w.get_output_port(), plant.GetInputPort("wind"))
+    log = LogVectorOutput(plant.GetOutputPort("motion_power"), builder, 0.5)
+    return builder.Build(), plant, log
+
+
+def test_simulated_turn_matches_closed_form():
+    """Constant command in constant wind: trochoid x(t) = x0 + (v_a/u)(sin ψ − sin ψ0) + w_x t."""
+    vehicle = VehicleParams(initial_position=[3.0, -4.0], initial_heading_deg=30.0)
+    u, w, T = 0.25, np.array([4.0, -2.0]), 20.0
+    diagram, plant, log = _Build(vehicle, u, w)
+    sim = Simulator(diagram)
+    sim.get_mutable_integrator().set_target_accuracy(1e-9)
+    sim.AdvanceTo(T)
+    pctx = plant.GetMyContextFromRoot(sim.get_context())
+    psi0 = math.radians(30.0)
+    psi = psi0 + u * T
+    expected = [
+        3.0 + VA / u * (math.sin(psi) - math.sin(psi0)) + w[0] * T,
+        -4.0 - VA / u * (math.cos(psi) - math.cos(psi0)) + w[1] * T,
+    ]
+    np.testing.assert_allclose(plant.GetOutputPort("position").Eval(pctx), expected, atol=1e-5)
+    assert plant.GetOutputPort("heading").Eval(pctx)[0] == pytest.approx(psi, abs=1e-9)
+    power = log.FindLog(sim.get_context()).data()[0]
+    assert np.all(np.isfinite(power))
+    np.testing.assert_allclose(power, MotionPower(VA, u, vehicle.motion_power), rtol=1e-12)
+
+
+def test_simulated_saturated_command_turns_at_the_limit():
+    vehicle = VehicleParams(initial_position=[0.0, 0.0], initial_heading_deg=0.0)
+    diagram, plant, log = _Build(vehicle, -10.0, [0.0, 0.0])
+    sim = Simulator(diagram)
+    sim.AdvanceTo(10.0)
+    pctx = plant.GetMyContextFromRoot(sim.get_context())
+    rmax = plant.max_heading_rate()
+    assert plant.GetOutputPort("heading").Eval(pctx)[0] == pytest.approx(-10.0 * rmax, rel=1e-9)
+    # A full-limit turn of radius v_a/ψ̇_max around (0, −v_a/ψ̇_max).
+    p = plant.GetOutputPort("position").Eval(pctx)
+    assert np.hypot(p[0], p[1] + VA / rmax) == pytest.approx(VA / rmax, rel=1e-6)
+    np.testing.assert_allclose(log.FindLog(sim.get_context()).data()[0], 37.5, rtol=1e-12)
+
+
+# -- motion power in guided flight (closed loop on the pure functions) ---------------------------
+
+
+def _GuidedPower(path, x0, wind, T=120.0, h=0.02, t_steady=60.0):
+    """RK4 of plant + guidance; returns the motion power after t_steady [W]."""
+    vehicle = VehicleParams()
+    rmax = MaxHeadingRate(vehicle)
+    d = path.descriptor()
+
+    def rate(x):
+        v = GroundVelocity(x[2], wind, VA)
+        u = HeadingRateCommand(x[:2], v, x[2], d, VA, 1.0, rmax)
+        return FixedWingDynamics(x, u, wind, VA, rmax)
+
+    x = np.asarray(x0, dtype=float)
+    powers = []
+    for i in range(int(round(T / h))):
+        k1 = rate(x)
+        k2 = rate(x + 0.5 * h * k1)
+        k3 = rate(x + 0.5 * h * k2)
+        k4 = rate(x + h * k3)
+        x = x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        if (i + 1) * h >= t_steady:
+            powers.append(float(MotionPower(VA, rate(x)[2], vehicle.motion_power)))
+    return np.array(powers)
+
+
+@pytest.mark.parametrize("wind_deg", [0.0, 135.0, 270.0])
+def test_motion_power_in_guided_flight(wind_deg):
+    """Lines: exactly P_level. 70 m circle in 5 m/s wind: the steady turn's heading rate
+    ψ̇ = (V_g/R) V_g² / (V_g² − wᵀṗ) spans [0.0952, 0.381] rad/s (V_g from 10 to 20 m/s), so P_m
+    spans [25.27, 29.24] W; all inside the documented 16–36 W, totals inside 27–41 W."""
+    w = WIND * np.array([math.cos(math.radians(wind_deg)), math.sin(math.radians(wind_deg))])
+    mp = VehicleParams().motion_power
+    line = _GuidedPower(Line([0.0, 0.0], [1.0, 0.0], s=1.0, k_e=0.05), [-30.0, 0.0, 0.0], w)
+    np.testing.assert_allclose(line, mp.level_power, atol=1e-6)
+
+    circle = _GuidedPower(Circle([0.0, 0.0], 70.0, s=1.0, k_e=0.05), [70.0, 0.0, -1.5], w)
+    r = 70.0
+    rate_min = (10.0 / r) * 100.0 / (100.0 + 50.0)  # headwind: V_g = 10, wᵀṗ = −50
+    rate_max = (20.0 / r) * 400.0 / (400.0 - 100.0)  # tailwind: V_g = 20, wᵀṗ = 100
+    p_min, p_max = MotionPower(VA, rate_min, mp), MotionPower(VA, rate_max, mp)
+    assert (p_min, p_max) == pytest.approx((25.27, 29.24), abs=0.01)
+    assert circle.min() == pytest.approx(p_min, abs=0.02)
+    assert circle.max() == pytest.approx(p_max, abs=0.02)
+    for motion in (line, circle):
+        assert np.all((motion >= 16.0) & (motion <= 36.0))
+        total_hi = motion + P_COMPUTATION_10FPS
+        total_lo = motion + P_COMPUTATION_2FPS
+        assert np.all((total_lo >= 27.0) & (total_hi <= 41.0))
