@@ -157,7 +157,11 @@ class CoverageParams:
     min_turning_radius: float = 62.449979983983983
     """r_min [m]; bounds the path parameter: c1 ∈ [r_min² − r², 0] (sqrt(3900) → [−1000, 0])."""
     plan_file: str = ""
-    """Optional authors'-format ``.pln`` plan to fly instead of generating one ("" = generate)."""
+    """Optional authors'-format ``.pln`` plan to fly instead of generating one ("" = generate;
+    "reference" = the packaged authors' plan)."""
+    trigger_radius: float = 2.0
+    """ε, a stage switches when the aircraft is within this distance of its triggering point (or
+    has passed it) [m], >= 0."""
 
     def Validate(self, key: str = "coverage") -> None:
         _check(len(self.polygon) >= 3, f"{key}.polygon", "needs at least 3 vertices")
@@ -173,6 +177,14 @@ class CoverageParams:
             f"r_min = {self.min_turning_radius:g} must be <= turning_radius r = "
             f"{self.turning_radius:g}",
         )
+        _nonnegative(self.trigger_radius, f"{key}.trigger_radius")
+        # Geometry (convexity, degenerate polygons, line edge, size for one repetition).
+        from .coverage import ZamboniCoverage
+
+        try:
+            ZamboniCoverage(self)
+        except ValueError as e:
+            raise ScenarioError(str(e)) from None
 
 
 @dc.dataclass

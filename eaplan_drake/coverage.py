@@ -1,0 +1,661 @@
+"""Zamboni-like coverage plan of a convex polygon (paper 003 Sec. IV-A, Alg. 1, Eqs. 10, 14–15).
+
+A *plan* is a sequence of :class:`Stage` s: a normalised path function φ (line or circle, with its
+direction of travel s and field gain k_e), the triggering point p_Γ where the next stage starts,
+and the index of the primitive stage it repeats. After an *approach* stage (primitive −1: a
+circle of radius r2 that brings the aircraft onto the first line) the plan repeats four
+primitive stages
+
+    0  first line ("down"-line), travelling along e1,
+    1  left (counter-clockwise) half circle of radius r1 = r + x_d/2,
+    2  second line ("up"-line) at 2 r1 from the first, travelling along −e1,
+    3  left half circle of radius r2(c1) = sqrt(r² + c1)                        (Eq. 14)
+
+so each repetition moves the lines by the shift d = 2 r1 − 2 r2(c1) [m] (x_d at c1 = 0; c1 < 0
+widens the spacing, fewer lines, shorter flight). c1 ∈ [r_min² − r², 0] keeps r2 ≥ r_min.
+The survey ends at the end of the last second line that fits in the polygon.
+
+Geometry. Lines are parallel to the chosen polygon edge (v_i, v_{i+1}) (``line_edge``). With n the
+unit normal of that edge pointing into the polygon, the local frame is e2 = n (the sweep
+direction) and e1 = n rotated by −90° (right-handed, so left turns in the local frame are left
+turns in the world). Line k sits at the offset η from the edge: the first line at x_d/2. A line
+runs over the polygon's extent of its swath band [η − x_d/2, η + x_d/2]; the two lines joined by a
+half circle end at the same ξ (the farther of the two extents: the aircraft may overfly the
+boundary), so every turn is tangent to both of its lines. For the reference rectangle of DESIGN.md
+section 3 (edge 0 = the left side x = −120) this gives the first line x = −115 from (−115, 146) to
+(−115, 11), the r1 turn to the line x = 35, and so on, as in the authors' plan file (without
+their 1 m drift of y per repetition).
+
+Re-planning (:meth:`PlanSource.Replan`) keeps every stage up to the current one and regenerates
+the later ones with the new c1: a line or circle being flown never moves. The coverage time
+t(c1) is the sum of the stage times at airspeed v_a (optionally in a constant wind w: ground speed
+v_g = wᵀt̂ + sqrt(v_a² − (w × t̂)²) along the course t̂), and the path scaling factors of Eq. 10
+are the linear fit ν c1 + τ through (c̲1, t(c̲1)) and (c̄1, t(c̄1)) (ρ = 1).
+
+The remaining survey *fraction* (what the sequencer outputs as ``coverage_remaining``) is the
+survey length still to fly divided by the survey length of the whole plan at the current c1 (the
+approach excluded): it falls from 1 to 0 along a flight, and fraction · t(c1) estimates the
+remaining time at any c1 because both numerator and denominator scale alike with the line
+spacing (paper 003 Alg. 2 l. 25).
+"""
+
+import dataclasses as dc
+import functools
+import math
+
+import numpy as np
+
+from .params import CoverageParams, GuidanceParams
+from .paths import Circle, Line, PathFunction
+
+__all__ = [
+    "APPROACH",
+    "NUM_PRIMITIVES",
+    "Stage",
+    "PlanSource",
+    "StaticPlan",
+    "ZamboniCoverage",
+    "CoveragePolygon",
+    "GroundSpeed",
+    "StageTime",
+    "CoverageTime",
+    "MakeCoveragePlan",
+    "ScalingFactors",
+    "TurningRadius2",
+]
+
+APPROACH = -1
+"""Primitive index of the approach stage (not part of the survey)."""
+NUM_PRIMITIVES = 4
+"""Number of primitive stages of the Zamboni-like motion."""
+ANCHOR_SIZE = 4
+"""Length of :attr:`Stage.anchor` (the numbers a plan source needs to continue after a stage)."""
+
+_TOL = 1e-9
+
+
+def _rot_ccw(v) -> np.ndarray:
+    return np.array([-v[1], v[0]], dtype=float)
+
+
+def _rot_cw(v) -> np.ndarray:
+    return np.array([v[1], -v[0]], dtype=float)
+
+
+def TurningRadius2(c1: float, r: float) -> float:
+    """r2(c1) = sqrt(r² + c1) [m] (paper 003 Eq. 14)."""
+    return math.sqrt(r * r + c1)
+
+
+@dc.dataclass(frozen=True)
+class Stage:
+    """One stage Γ_i of a plan (paper 003 Def. II.1–II.5).
+
+    ``entry`` is the point where the stage nominally starts (the previous trigger, or the start
+    position projected onto the approach circle) and ``length`` the path length from entry to
+    trigger [m]; both serve the coverage time and the remaining fraction.
+    """
+
+    index: int
+    """Position of the stage in the plan (0 = first)."""
+    path: PathFunction
+    """Normalised path function with direction s and gain k_e."""
+    trigger: tuple[float, float]
+    """Triggering point p_Γ [m]."""
+    primitive: int
+    """Primitive stage 0..3, or −1 (:data:`APPROACH`) for a stage that is not repeated."""
+    c1: float
+    """Path parameter [m²] the stage was generated with."""
+    entry: tuple[float, float]
+    """Nominal start point [m]."""
+    length: float
+    """Nominal path length from entry to trigger [m]."""
+    anchor: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+    """:data:`ANCHOR_SIZE` numbers with which the plan source regenerates the later stages."""
+
+    @property
+    def is_circle(self) -> bool:
+        return self.path.is_circle
+
+    def TriggerTangent(self) -> np.ndarray:
+        """Unit direction of travel at the triggering point."""
+        t = self.path.tangent(self.trigger)
+        return t / np.linalg.norm(t)
+
+
+def ArcAngle(path: PathFunction, start, end) -> float:
+    """Angle [rad] swept on circle ``path`` from ``start`` to ``end`` in its direction of travel,
+    in [0, 2π). Points off the circle are projected radially."""
+    o = path.center
+    a0 = math.atan2(start[1] - o[1], start[0] - o[0])
+    a1 = math.atan2(end[1] - o[1], end[0] - o[0])
+    # A positive normalised circle (a > 0) travels clockwise for s = +1; a < 0 reverses it.
+    ccw = (path.s < 0) == (path.a > 0)
+    d = (a1 - a0) if ccw else (a0 - a1)
+    d = d % (2.0 * math.pi)
+    if d > 2.0 * math.pi - 1e-9:
+        d = 0.0
+    return d
+
+
+def PathLength(path: PathFunction, start, end) -> float:
+    """Length [m] along ``path`` from ``start`` to ``end`` (lines: the projection on the direction
+    of travel, ≥ 0; circles: the arc in the direction of travel)."""
+    if path.is_circle:
+        return path.radius * ArcAngle(path, start, end)
+    t = path.tangent(end)
+    t = t / np.linalg.norm(t)
+    return max(0.0, float(np.dot(np.asarray(end, float) - np.asarray(start, float), t)))
+
+
+def GroundSpeed(course, airspeed: float, wind=(0.0, 0.0)) -> float:
+    """Ground speed [m/s] along the unit course ``course`` at ``airspeed`` [m/s] in ``wind`` [m/s]:
+    v_g = wᵀt̂ + sqrt(v_a² − (w × t̂)²) (the heading is crabbed into the wind)."""
+    t = np.asarray(course, dtype=float)
+    w = np.asarray(wind, dtype=float)
+    cross = w[0] * t[1] - w[1] * t[0]
+    return float(np.dot(w, t) + math.sqrt(airspeed * airspeed - cross * cross))
+
+
+def StageTime(stage: Stage, airspeed: float, wind=(0.0, 0.0)) -> float:
+    """Time [s] to fly ``stage`` from its entry to its trigger at ``airspeed`` in constant
+    ``wind`` (exact on the nominal path; midpoint rule over the arc for circles)."""
+    w = np.asarray(wind, dtype=float)
+    if not airspeed > 0.0 or not math.hypot(*w) < airspeed:
+        raise ValueError(f"StageTime: need 0 < |wind| < airspeed, got {w} and {airspeed}")
+    if stage.length <= 0.0:
+        return 0.0
+    path = stage.path
+    if not path.is_circle:
+        t = path.tangent(stage.trigger)
+        return stage.length / GroundSpeed(t / np.linalg.norm(t), airspeed, w)
+    if not w.any():
+        return stage.length / airspeed
+    o = path.center
+    radius = path.radius
+    angle = stage.length / radius
+    ccw = (path.s < 0) == (path.a > 0)
+    a0 = math.atan2(stage.entry[1] - o[1], stage.entry[0] - o[0])
+    n = max(16, int(math.ceil(angle / (2 * math.pi) * 720)))
+    theta = a0 + (np.arange(n) + 0.5) / n * angle * (1.0 if ccw else -1.0)
+    sign = 1.0 if ccw else -1.0
+    tx, ty = -np.sin(theta) * sign, np.cos(theta) * sign
+    cross = w[0] * ty - w[1] * tx
+    vg = w[0] * tx + w[1] * ty + np.sqrt(airspeed**2 - cross**2)
+    return float(np.sum(stage.length / n / vg))
+
+
+class PlanSource:
+    """A plan as a function of the path parameter c1: the stages at c1, and the stages after a
+    given stage when c1 changes in flight. Subclasses implement :meth:`Stages` and
+    :meth:`StagesAfter`; results are cached per argument (the methods are pure)."""
+
+    c1_bounds: tuple[float, float] = (0.0, 0.0)
+    """Admissible [c̲1, c̄1] [m²]."""
+    initial_c1: float | None = None
+    """c1 of the initial plan [m²] (None: the upper bound); the sequencer starts with it."""
+    airspeed: float = 15.0
+    """v_a [m/s] used by :meth:`CoverageTimeBounds` when none is given."""
+
+    def Stages(self, c1: float) -> tuple[Stage, ...]:
+        """The whole plan at c1."""
+        raise NotImplementedError
+
+    def StagesAfter(self, index: int, anchor: tuple[float, ...], c1: float) -> tuple[Stage, ...]:
+        """The stages that follow stage ``index`` (with its ``anchor``) when the rest of the plan
+        is flown with c1; the stage itself is kept as it is."""
+        raise NotImplementedError
+
+    # -- derived ---------------------------------------------------------------------------------
+
+    def CheckC1(self, c1: float) -> float:
+        """c1 within :attr:`c1_bounds` (1e-6 tolerance, then clipped); ValueError otherwise."""
+        lo, hi = self.c1_bounds
+        if not math.isfinite(c1) or c1 < lo - 1e-6 or c1 > hi + 1e-6:
+            raise ValueError(f"path parameter c1 must be in [{lo:g}, {hi:g}] m², got {c1!r}")
+        return min(max(float(c1), lo), hi)
+
+    def Replan(self, stages, index: int, c1: float) -> tuple[Stage, ...]:
+        """``stages[:index + 1]`` kept, the later ones regenerated with c1 (paper 003 Sec. IV)."""
+        c1 = self.CheckC1(c1)
+        current = stages[index]
+        return tuple(stages[: index + 1]) + self.StagesAfter(index, current.anchor, c1)
+
+    def SurveyLength(self, c1: float) -> float:
+        """Length [m] of the survey stages (approach excluded) of the plan at c1."""
+        return _SurveyLength(self.Stages(self.CheckC1(c1)))
+
+    def CoverageTime(
+        self, c1: float, airspeed: float, wind=(0.0, 0.0), include_approach: bool = True
+    ) -> float:
+        """t(c1) [s]: time to fly the whole plan at c1 at ``airspeed`` in constant ``wind``."""
+        stages = self.Stages(self.CheckC1(c1))
+        return sum(
+            StageTime(s, airspeed, wind)
+            for s in stages
+            if include_approach or s.primitive != APPROACH
+        )
+
+    def CoverageTimeBounds(
+        self, c1_bounds=None, airspeed: float | None = None, wind=(0.0, 0.0)
+    ) -> tuple[float, float]:
+        """(t(c̲1), t(c̄1)) [s] at ``airspeed`` (default :attr:`airspeed`), approach included:
+        the two end points of the linear coverage-time model of Eq. 10."""
+        lo, hi = self.c1_bounds if c1_bounds is None else c1_bounds
+        v = self.airspeed if airspeed is None else airspeed
+        return (self.CoverageTime(lo, v, wind), self.CoverageTime(hi, v, wind))
+
+    def ScalingFactors(
+        self, airspeed: float, c1_bounds=None, wind=(0.0, 0.0), include_approach: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """ν, τ of paper 003 Eq. 10 (ρ = 1): t(c1) ≈ ν c1 + τ through both bounds."""
+        lo, hi = self.c1_bounds if c1_bounds is None else c1_bounds
+        t_lo = self.CoverageTime(lo, airspeed, wind, include_approach)
+        t_hi = self.CoverageTime(hi, airspeed, wind, include_approach)
+        return ScalingFactors((lo, hi), (t_lo, t_hi))
+
+    def RemainingFraction(self, stages, index: int, position=None, c1=None) -> float:
+        """Fraction [0, 1] of the survey still to fly: the survey length after the point
+        ``position`` on stage ``index`` (its entry when None) over the survey length of the whole
+        plan at c1 (default: the c1 of the last stage, i.e. the one the rest is flown with)."""
+        c1 = stages[-1].c1 if c1 is None else c1
+        total = self.SurveyLength(c1)
+        rest = _SurveyLength(stages[index + 1 :])
+        rest += StageRemaining(stages[index], position)
+        return min(1.0, max(0.0, rest / total)) if total > 0 else 0.0
+
+
+def _SurveyLength(stages) -> float:
+    return float(sum(s.length for s in stages if s.primitive != APPROACH))
+
+
+def StageRemaining(stage: Stage, position=None) -> float:
+    """Survey length [m] left on ``stage`` from ``position`` (0 for the approach)."""
+    if stage.primitive == APPROACH:
+        return 0.0
+    if position is None:
+        return stage.length
+    return min(stage.length, PathLength(stage.path, position, stage.trigger))
+
+
+def ScalingFactors(c1_bounds, times) -> tuple[np.ndarray, np.ndarray]:
+    """Paper 003 Eq. 10 with ρ = 1: ν = (t̄ − t̲)/(c̄ − c̲), τ = c̲ (t̲ − t̄)/(c̄ − c̲) + t̲, so
+    that t(c1) ≈ ν c1 + τ [s]. Returns 1-element arrays (one per path parameter)."""
+    lo, hi = (float(v) for v in c1_bounds)
+    t_lo, t_hi = (float(v) for v in times)
+    if not hi > lo:
+        raise ValueError(f"ScalingFactors: c1 bounds must satisfy lower < upper, got {c1_bounds}")
+    nu = (t_hi - t_lo) / (hi - lo)
+    tau = lo * (t_lo - t_hi) / (hi - lo) + t_lo
+    return np.array([nu]), np.array([tau])
+
+
+class StaticPlan(PlanSource):
+    """A fixed list of stages (re-planning changes nothing)."""
+
+    def __init__(self, stages):
+        stages = tuple(stages)
+        if not stages:
+            raise ValueError("StaticPlan: needs at least one stage")
+        self._stages = stages
+        c1 = stages[0].c1
+        self.c1_bounds = (c1, c1)
+
+    def CheckC1(self, c1: float) -> float:
+        return self.c1_bounds[0]
+
+    def Stages(self, c1: float = 0.0) -> tuple[Stage, ...]:
+        return self._stages
+
+    def StagesAfter(self, index, anchor, c1) -> tuple[Stage, ...]:
+        return self._stages[int(index) + 1 :]
+
+
+# -- polygon ------------------------------------------------------------------------------------
+
+
+def _ConvexHull(points: np.ndarray) -> list[int]:
+    """Indices of the strict convex hull vertices, counter-clockwise (monotone chain)."""
+    order = sorted(range(len(points)), key=lambda i: (points[i, 0], points[i, 1]))
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    scale = float(np.max(np.abs(points))) + 1.0
+    tol = 1e-12 * scale * scale
+    lower: list[int] = []
+    for i in order:
+        while len(lower) >= 2 and cross(points[lower[-2]], points[lower[-1]], points[i]) <= tol:
+            lower.pop()
+        lower.append(i)
+    upper: list[int] = []
+    for i in reversed(order):
+        while len(upper) >= 2 and cross(points[upper[-2]], points[upper[-1]], points[i]) <= tol:
+            upper.pop()
+        upper.append(i)
+    return lower[:-1] + upper[:-1]
+
+
+class CoveragePolygon:
+    """A validated convex polygon with the local sweep frame of one of its edges.
+
+    Local coordinates: p = origin + ξ e1 + η e2 with e2 the inward unit normal of edge
+    (v_i, v_{i+1}), e1 = e2 rotated by −90°, origin v_i. ``width`` W = max η over the polygon.
+    """
+
+    def __init__(self, vertices, line_edge: int = 0, key: str = "coverage"):
+        try:
+            P = np.array(vertices, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{key}.polygon: expected a list of [x, y] vertices [m]") from None
+        if P.ndim != 2 or P.shape[1] != 2:
+            raise ValueError(f"{key}.polygon: expected a list of [x, y] vertices [m], got {P}")
+        if not np.all(np.isfinite(P)):
+            raise ValueError(f"{key}.polygon: vertices must be finite, got {P.tolist()}")
+        n = len(P)
+        if n < 3:
+            raise ValueError(f"{key}.polygon: degenerate polygon: needs >= 3 vertices, got {n}")
+        scale = float(np.ptp(P, axis=0).max())
+        for i in range(n):
+            for j in range(i + 1, n):
+                if np.linalg.norm(P[i] - P[j]) <= 1e-9 * max(scale, 1.0):
+                    raise ValueError(
+                        f"{key}.polygon: degenerate polygon: vertices {i} and {j} coincide "
+                        f"at {P[i].tolist()}"
+                    )
+        hull = _ConvexHull(P)
+        area = (
+            0.5
+            * abs(
+                sum(
+                    P[hull[k], 0] * P[hull[(k + 1) % len(hull)], 1]
+                    - P[hull[(k + 1) % len(hull)], 0] * P[hull[k], 1]
+                    for k in range(len(hull))
+                )
+            )
+            if len(hull) >= 3
+            else 0.0
+        )
+        if len(hull) < 3 or area <= 1e-9 * scale * scale:
+            raise ValueError(f"{key}.polygon: degenerate polygon: all vertices are collinear")
+        on_hull = set(hull)
+        for i in range(n):
+            if i in on_hull:
+                continue
+            if self._StrictlyInside(P[hull], P[i], scale):
+                raise ValueError(
+                    f"{key}.polygon: non-convex polygon: vertex {i} {P[i].tolist()} lies inside "
+                    "the convex hull of the others"
+                )
+            raise ValueError(
+                f"{key}.polygon: degenerate polygon: vertex {i} {P[i].tolist()} lies on a "
+                "straight edge between two others (collinear vertices)"
+            )
+        if not (isinstance(line_edge, int | np.integer) and 0 <= line_edge < n):
+            raise ValueError(
+                f"{key}.line_edge: must be an integer in [0, {n - 1}], got {line_edge}"
+            )
+        i, j = int(line_edge), (int(line_edge) + 1) % n
+        pos = {v: k for k, v in enumerate(hull)}
+        if (pos[i] - pos[j]) % n not in (1, n - 1):
+            raise ValueError(
+                f"{key}.line_edge: vertices {i} and {j} are not neighbours on the polygon's "
+                "boundary (the pair is a diagonal); list the vertices in boundary order or pick "
+                "another edge"
+            )
+        u = (P[j] - P[i]) / np.linalg.norm(P[j] - P[i])
+        e2 = _rot_ccw(u)
+        if np.min((P - P[i]) @ e2) < -1e-9 * scale:
+            e2 = -e2
+        self.vertices = P
+        self.hull = P[hull]
+        self.origin = P[i].copy()
+        self.e2 = e2
+        self.e1 = _rot_cw(e2)
+        self.local = np.column_stack(
+            [(self.hull - self.origin) @ self.e1, (self.hull - self.origin) @ self.e2]
+        )
+        self.local[np.abs(self.local[:, 1]) < 1e-9 * scale, 1] = 0.0
+        self.width = float(self.local[:, 1].max())
+        self.area = area
+        self._scale = scale
+
+    @staticmethod
+    def _StrictlyInside(hull: np.ndarray, p: np.ndarray, scale: float) -> bool:
+        m = len(hull)
+        for k in range(m):
+            a, b = hull[k], hull[(k + 1) % m]
+            cross = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+            if cross <= 1e-9 * scale * scale:
+                return False
+        return True
+
+    def ToWorld(self, xi: float, eta: float) -> np.ndarray:
+        return self.origin + xi * self.e1 + eta * self.e2
+
+    def Chord(self, eta: float) -> tuple[float, float]:
+        """(ξ_lo, ξ_hi): the extent of the polygon along e1 at offset η (clipped to [0, W])."""
+        eta = min(max(eta, 0.0), self.width)
+        L = self.local
+        values = []
+        m = len(L)
+        for k in range(m):
+            (xa, ya), (xb, yb) = L[k], L[(k + 1) % m]
+            if ya == yb:
+                if abs(ya - eta) <= 1e-9 * self._scale:
+                    values += [xa, xb]
+                continue
+            if (ya - eta) * (yb - eta) <= 0.0:
+                values.append(xa + (eta - ya) / (yb - ya) * (xb - xa))
+        if not values:  # numerically at a vertex
+            k = int(np.argmin(np.abs(L[:, 1] - eta)))
+            values = [L[k, 0]]
+        return min(values), max(values)
+
+    def BandExtent(self, eta: float, half_width: float) -> tuple[float, float]:
+        """(ξ_lo, ξ_hi): the polygon's extent along e1 over the band [η − h, η + h]."""
+        lo_eta = min(max(eta - half_width, 0.0), self.width)
+        hi_eta = min(max(eta + half_width, 0.0), self.width)
+        etas = [lo_eta, hi_eta] + [e for e in self.local[:, 1] if lo_eta < e < hi_eta]
+        chords = [self.Chord(e) for e in etas]
+        return min(c[0] for c in chords), max(c[1] for c in chords)
+
+
+# -- Alg. 1 -------------------------------------------------------------------------------------
+
+
+class ZamboniCoverage(PlanSource):
+    """The Zamboni-like coverage plan of paper 003 Alg. 1 as a function of c1 (see module doc).
+
+    ``start`` is the aircraft's start position [m] (it sets the approach stage's length);
+    ``k_e`` the field gain put into every path descriptor [1/m] (default GuidanceParams.k_e).
+    """
+
+    def __init__(self, params: CoverageParams | None = None, start=(-100.0, 220.0), k_e=None):
+        params = CoverageParams() if params is None else params
+        key = "coverage"
+        for name in ("swath_spacing", "turning_radius", "min_turning_radius"):
+            v = getattr(params, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{key}.{name}: must be a finite number > 0 m, got {v!r}")
+        self.r = float(params.turning_radius)
+        self.r_min = float(params.min_turning_radius)
+        self.x_d = float(params.swath_spacing)
+        if self.r_min > self.r:
+            raise ValueError(
+                f"{key}.min_turning_radius: r_min = {self.r_min:g} m must be <= turning_radius "
+                f"r = {self.r:g} m"
+            )
+        self.r1 = self.r + self.x_d / 2.0
+        self.c1_bounds = (self.r_min**2 - self.r**2, 0.0)
+        self.k_e = GuidanceParams().k_e if k_e is None else float(k_e)
+        if not (math.isfinite(self.k_e) and self.k_e > 0):
+            raise ValueError(f"ZamboniCoverage.k_e: must be > 0 1/m, got {k_e!r}")
+        self.start = np.asarray(start, dtype=float).reshape(2)
+        if not np.all(np.isfinite(self.start)):
+            raise ValueError(f"ZamboniCoverage.start: must be a finite [x, y] in m, got {start!r}")
+        self.polygon = CoveragePolygon(params.polygon, params.line_edge, key)
+        self.params = params
+        W = self.polygon.width
+        need = 2.0 * self.r1 + self.x_d
+        if W < need - 1e-9:
+            raise ValueError(
+                f"{key}.polygon: too small for one repetition: its width across the lines "
+                f"(normal to edge {params.line_edge}) is {W:g} m, the Zamboni-like motion needs "
+                f">= 2 r1 + x_d = {need:g} m (r1 = r + x_d/2 = {self.r1:g} m)"
+            )
+        self._last_eta = W - self.x_d / 2.0
+        self._cache_stages = functools.lru_cache(maxsize=64)(self._Stages)
+        self._cache_after = functools.lru_cache(maxsize=512)(self._StagesAfter)
+
+    # -- geometry helpers --------------------------------------------------------------------------
+
+    def Shift(self, c1: float) -> float:
+        """d = 2 r1 − 2 r2(c1) [m], the distance between repetitions."""
+        return 2.0 * self.r1 - 2.0 * TurningRadius2(self.CheckC1(c1), self.r)
+
+    def _Fits(self, eta_d: float) -> bool:
+        return eta_d + 2.0 * self.r1 <= self._last_eta + 1e-9
+
+    def _Reps(self, k: int, eta_d: float, c1: float, fixed_r2=None) -> list:
+        """Repetitions (k, η_d, r2 or None for the last, c1) from rep k at η_d until the last
+        second line that fits."""
+        reps = []
+        r2c = TurningRadius2(c1, self.r)
+        while True:
+            r2 = fixed_r2 if (fixed_r2 is not None and not reps) else r2c
+            nxt = eta_d + 2.0 * self.r1 - 2.0 * r2
+            if self._Fits(nxt):
+                reps.append((k, eta_d, r2, c1))
+                eta_d, k = nxt, k + 1
+            else:
+                reps.append((k, eta_d, None, c1))
+                return reps
+            if len(reps) > 100000:  # unreachable: the shift is >= 2 r1 − 2 r > 0
+                raise RuntimeError("ZamboniCoverage: too many repetitions")
+
+    def _Build(self, reps: list, prev_eta_u) -> list[Stage]:
+        """Stages of the repetitions ``reps``; ``prev_eta_u`` is the second line before them."""
+        poly, h, k_e = self.polygon, self.x_d / 2.0, self.k_e
+        stages: list[Stage] = []
+        for idx, (k, eta_d, r2, c1) in enumerate(reps):
+            eta_u = eta_d + 2.0 * self.r1
+            lo_d, hi_d = poly.BandExtent(eta_d, h)
+            lo_u, hi_u = poly.BandExtent(eta_u, h)
+            if prev_eta_u is not None:
+                top_d = min(lo_d, poly.BandExtent(prev_eta_u, h)[0])
+            else:
+                top_d = lo_d
+            bottom = max(hi_d, hi_u)
+            top_u = lo_u
+            if r2 is not None:
+                eta_next = eta_u - 2.0 * r2
+                top_u = min(lo_u, poly.BandExtent(eta_next, h)[0])
+            W = poly.ToWorld
+            p_top_d = W(top_d, eta_d)
+            p_bot_d = W(bottom, eta_d)
+            p_bot_u = W(bottom, eta_u)
+            p_top_u = W(top_u, eta_u)
+            anchor_r2 = 0.0 if r2 is None else r2
+            base = 1 + NUM_PRIMITIVES * k
+            line_d = Line(p_top_d, poly.e2, s=1.0, k_e=k_e)  # travels along e1
+            circle1 = Circle(W(bottom, eta_d + self.r1), self.r1, s=-1.0, k_e=k_e)
+            line_u = Line(p_top_u, poly.e2, s=-1.0, k_e=k_e)  # travels along −e1
+            items = [
+                (line_d, p_bot_d, 0, p_top_d, bottom - top_d),
+                (circle1, p_bot_u, 1, p_bot_d, math.pi * self.r1),
+                (line_u, p_top_u, 2, p_bot_u, bottom - top_u),
+            ]
+            if r2 is not None:
+                circle2 = Circle(W(top_u, eta_u - r2), r2, s=-1.0, k_e=k_e)
+                items.append((circle2, W(top_u, eta_u - 2.0 * r2), 3, p_top_u, math.pi * r2))
+            for path, trig, prim, entry, length in items:
+                stages.append(
+                    Stage(
+                        index=base + prim,
+                        path=path,
+                        trigger=(float(trig[0]), float(trig[1])),
+                        primitive=prim,
+                        c1=float(c1),
+                        entry=(float(entry[0]), float(entry[1])),
+                        length=float(length),
+                        anchor=(float(k), float(prim), float(eta_d), float(anchor_r2)),
+                    )
+                )
+            prev_eta_u = eta_u
+            del idx
+        return stages
+
+    def _Stages(self, c1: float) -> tuple[Stage, ...]:
+        poly = self.polygon
+        eta_d0 = self.x_d / 2.0
+        r2 = TurningRadius2(c1, self.r)
+        top0 = poly.BandExtent(eta_d0, self.x_d / 2.0)[0]
+        trig = poly.ToWorld(top0, eta_d0)
+        approach = Circle(poly.ToWorld(top0, eta_d0 + r2), r2, s=-1.0, k_e=self.k_e)
+        o = approach.center
+        v = self.start - o
+        nv = np.linalg.norm(v)
+        entry = o + r2 * v / nv if nv > 0 else trig
+        first = Stage(
+            index=0,
+            path=approach,
+            trigger=(float(trig[0]), float(trig[1])),
+            primitive=APPROACH,
+            c1=float(c1),
+            entry=(float(entry[0]), float(entry[1])),
+            length=r2 * ArcAngle(approach, entry, trig),
+            anchor=(-1.0, float(APPROACH), eta_d0, 0.0),
+        )
+        return (first,) + tuple(self._Build(self._Reps(0, eta_d0, c1), None))
+
+    def _StagesAfter(self, index: int, anchor: tuple, c1: float) -> tuple[Stage, ...]:
+        k, prim, eta_d, r2k = anchor
+        k, prim = int(round(k)), int(round(prim))
+        if prim == APPROACH:
+            return self._Stages(c1)[1:]
+        if prim == 3:
+            eta_u = eta_d + 2.0 * self.r1
+            reps = self._Reps(k + 1, eta_u - 2.0 * r2k, c1)
+            return tuple(self._Build(reps, eta_u))
+        stages = self._Build(self._Reps(k, eta_d, c1), None)
+        return tuple(s for s in stages if s.index > index)
+
+    # -- PlanSource ----------------------------------------------------------------------------
+
+    def Stages(self, c1: float) -> tuple[Stage, ...]:
+        """The whole plan at c1 (Alg. 1): approach, then the repetitions."""
+        return self._cache_stages(self.CheckC1(c1))
+
+    def StagesAfter(self, index: int, anchor: tuple[float, ...], c1: float) -> tuple[Stage, ...]:
+        return self._cache_after(int(index), tuple(float(a) for a in anchor), self.CheckC1(c1))
+
+
+def CoverageTime(
+    params: CoverageParams | None,
+    c1: float,
+    airspeed: float,
+    wind=(0.0, 0.0),
+    start=(-100.0, 220.0),
+    include_approach: bool = True,
+) -> float:
+    """t(c1) [s] of the Zamboni-like plan of ``params`` (see :class:`ZamboniCoverage`)."""
+    return ZamboniCoverage(params, start=start).CoverageTime(c1, airspeed, wind, include_approach)
+
+
+def MakeCoveragePlan(
+    coverage: CoverageParams | None = None, vehicle=None, c1: float = 0.0, k_e=None
+) -> ZamboniCoverage:
+    """The Zamboni-like plan of a scenario: ``coverage`` geometry, start position and airspeed from
+    ``vehicle`` (:class:`~eaplan_drake.params.VehicleParams`, default the reference), initial c1
+    [m²] (checked against [r_min² − r², 0]) and field gain ``k_e`` [1/m]."""
+    from .params import VehicleParams
+
+    vehicle = VehicleParams() if vehicle is None else vehicle
+    plan = ZamboniCoverage(coverage, start=vehicle.initial_position, k_e=k_e)
+    try:
+        plan.initial_c1 = plan.CheckC1(c1)
+    except ValueError as e:
+        raise ValueError(f"coverage: initial {e}") from None
+    plan.airspeed = float(vehicle.airspeed)
+    return plan

@@ -1,0 +1,353 @@
+"""Coverage plan (paper 003 Alg. 1): reference geometry, times, Eq. 10, re-planning, validation."""
+
+import dataclasses as dc
+import math
+
+import numpy as np
+import pytest
+
+from eaplan_drake.coverage import (
+    APPROACH,
+    CoveragePolygon,
+    CoverageTime,
+    GroundSpeed,
+    MakeCoveragePlan,
+    PathLength,
+    ScalingFactors,
+    Stage,
+    StageTime,
+    TurningRadius2,
+    ZamboniCoverage,
+)
+from eaplan_drake.params import CoverageParams, GuidanceParams, ScenarioError, VehicleParams
+from eaplan_drake.paths import Circle
+
+V_A = 15.0
+R2_MIN = math.sqrt(3900.0)  # r2(−1000)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    return ZamboniCoverage(CoverageParams(), start=(-100.0, 220.0))
+
+
+def _line_x(stage: Stage) -> float:
+    """x of a vertical line φ = ±(x − x0)."""
+    a, bx, by, c = stage.path.descriptor()[:4]
+    assert a == 0.0 and abs(by) < 1e-12 and abs(abs(bx) - 1.0) < 1e-12
+    return -c / bx
+
+
+def test_reference_rectangle_reproduces_the_authors_first_stages(reference):
+    s = reference.Stages(0.0)
+    approach, down, turn1, up, turn2, down2 = s[:6]
+    assert approach.primitive == APPROACH
+    assert approach.path.center == pytest.approx([-45.0, 146.0])
+    assert approach.path.radius == pytest.approx(70.0)
+    assert approach.trigger == pytest.approx((-115.0, 146.0))
+    assert [st.primitive for st in s[1:9]] == [0, 1, 2, 3, 0, 1, 2, 3]
+    assert _line_x(down) == pytest.approx(-115.0)
+    assert down.entry == pytest.approx((-115.0, 146.0))
+    assert down.trigger == pytest.approx((-115.0, 11.0))
+    assert down.TriggerTangent() == pytest.approx([0.0, -1.0])
+    assert turn1.path.center == pytest.approx([-40.0, 11.0])
+    assert turn1.path.radius == pytest.approx(75.0)  # r1 = r + x_d/2
+    assert turn1.trigger == pytest.approx((35.0, 11.0))
+    assert _line_x(up) == pytest.approx(35.0)
+    assert up.trigger == pytest.approx((35.0, 146.0))
+    assert up.TriggerTangent() == pytest.approx([0.0, 1.0])
+    assert turn2.path.center == pytest.approx([-35.0, 146.0])
+    assert turn2.path.radius == pytest.approx(70.0)
+    assert _line_x(down2) == pytest.approx(-105.0)
+    # Every turn is counter-clockwise (s = −1 on a positive circle), like the authors' direction 0.
+    for st in (approach, turn1, turn2):
+        assert st.path.s == -1.0 and st.path.a > 0
+        assert st.length == pytest.approx(
+            st.path.radius * (math.pi if st is not approach else math.radians(53.3785)), rel=1e-4
+        )
+
+
+def test_every_stage_is_normalised_and_continuous(reference):
+    for c1 in (0.0, -1000.0):
+        stages = reference.Stages(c1)
+        for prev, st in zip(stages, stages[1:], strict=False):
+            assert st.entry == pytest.approx(prev.trigger, abs=1e-9)
+            for p in (st.entry, st.trigger):
+                assert abs(st.path.value(p)) < 1e-9
+                assert np.linalg.norm(st.path.gradient(p)) == pytest.approx(1.0, abs=1e-12)
+            # Tangent continuity at the switch: same direction of travel on both stages.
+            t_prev, t_next = prev.TriggerTangent(), st.path.tangent(st.entry)
+            assert t_next / np.linalg.norm(t_next) == pytest.approx(t_prev, abs=1e-9)
+            assert st.path.k_e == GuidanceParams().k_e
+            assert st.index == prev.index + 1
+
+
+@pytest.mark.parametrize("c1, shift", [(0.0, 10.0), (-1000.0, 150.0 - 2.0 * R2_MIN)])
+def test_shift_between_repetitions(reference, c1, shift):
+    assert reference.Shift(c1) == pytest.approx(shift)
+    downs = [_line_x(s) for s in reference.Stages(c1) if s.primitive == 0]
+    ups = [_line_x(s) for s in reference.Stages(c1) if s.primitive == 2]
+    np.testing.assert_allclose(np.diff(downs), shift, rtol=1e-12)
+    np.testing.assert_allclose(np.diff(ups), shift, rtol=1e-12)
+    # The survey ends after the last up-line that fits: x <= 180 − x_d/2 = 175.
+    assert ups[-1] <= 175.0 + 1e-9 and ups[-1] + shift > 175.0
+    assert reference.Stages(c1)[-1].primitive == 2
+    assert reference.Stages(c1)[-1].trigger == pytest.approx((ups[-1], 146.0))
+
+
+def test_reference_shift_at_c1_minus_1000_is_25_1_m(reference):
+    assert reference.Shift(-1000.0) == pytest.approx(25.1, abs=0.01)
+    assert len(reference.Stages(0.0)) == 1 + 15 * 4 - 1  # 60, as the authors' plan file
+    assert len(reference.Stages(-1000.0)) == 1 + 6 * 4 - 1
+
+
+def _analytic_time(c1: float, n_reps: int, approach_angle: float) -> float:
+    r2 = TurningRadius2(c1, 70.0)
+    length = (
+        r2 * approach_angle + n_reps * (2 * 135.0 + math.pi * 75.0) + (n_reps - 1) * math.pi * r2
+    )
+    return length / V_A
+
+
+def test_coverage_time_matches_geometry_and_the_paper(reference):
+    # Approach: from the start's direction seen from the approach circle's centre to 180°.
+    for c1, n_reps, paper in ((0.0, 15, 706.0), (-1000.0, 6, 270.0)):
+        r2 = TurningRadius2(c1, 70.0)
+        o = np.array([-115.0 + r2, 146.0])
+        v = np.array([-100.0, 220.0]) - o
+        angle = math.pi - math.atan2(v[1], v[0])
+        t = reference.CoverageTime(c1, V_A)
+        assert t == pytest.approx(_analytic_time(c1, n_reps, angle), rel=1e-12)
+        assert abs(t - paper) <= 0.10 * paper
+    assert CoverageTime(None, 0.0, V_A) == pytest.approx(reference.CoverageTime(0.0, V_A))
+    assert reference.CoverageTime(0.0, V_A, include_approach=False) == pytest.approx(
+        reference.SurveyLength(0.0) / V_A
+    )
+
+
+def test_ground_speed_and_stage_time_in_wind():
+    w = (5.0, 0.0)
+    assert GroundSpeed((1.0, 0.0), V_A, w) == pytest.approx(20.0)
+    assert GroundSpeed((-1.0, 0.0), V_A, w) == pytest.approx(10.0)
+    assert GroundSpeed((0.0, 1.0), V_A, w) == pytest.approx(math.sqrt(200.0))
+    # A half circle (bottom, downwind) against an independent time integration of the arc.
+    c = Circle((0.0, 0.0), 75.0, s=-1.0)
+    st = Stage(0, c, (75.0, 0.0), 1, 0.0, (-75.0, 0.0), math.pi * 75.0)
+    theta, t, h = math.pi, 0.0, 1e-3  # ccw from 180° through 270° to 360°
+    while theta < 2 * math.pi:
+        course = (-math.sin(theta), math.cos(theta))
+        dtheta = GroundSpeed(course, V_A, w) / 75.0
+        step = min(h, (2 * math.pi - theta) / dtheta)
+        theta += dtheta * step
+        t += step
+    assert StageTime(st, V_A, w) == pytest.approx(t, rel=1e-5)
+    assert StageTime(st, V_A) == pytest.approx(math.pi * 75.0 / V_A)
+    with pytest.raises(ValueError, match="wind"):
+        StageTime(st, V_A, (15.0, 0.0))
+
+
+def test_repetition_time_in_wind_is_longer_than_in_still_air(reference):
+    reps = reference.Stages(0.0)[1:5]
+    still = sum(StageTime(s, V_A) for s in reps)
+    windy = sum(StageTime(s, V_A, (5.0, 0.0)) for s in reps)
+    assert still == pytest.approx((270.0 + math.pi * 145.0) / V_A)
+    assert windy > still + 2.0  # crossing a 5 m/s wind costs time on every closed circuit
+
+
+def test_scaling_factors_eq10(reference):
+    nu, tau = reference.ScalingFactors(V_A)
+    t_lo, t_hi = reference.CoverageTime(-1000.0, V_A), reference.CoverageTime(0.0, V_A)
+    assert nu.shape == (1,) and tau.shape == (1,)
+    assert nu[0] * -1000.0 + tau[0] == pytest.approx(t_lo)
+    assert nu[0] * 0.0 + tau[0] == pytest.approx(t_hi)
+    assert nu[0] > 0  # larger c1, longer coverage
+    nu2, tau2 = ScalingFactors((-1000.0, 0.0), (270.0, 706.0))
+    assert nu2[0] == pytest.approx(0.436) and tau2[0] == pytest.approx(706.0)
+    assert reference.CoverageTimeBounds((-1000.0, 0.0), V_A) == pytest.approx((t_lo, t_hi))
+    with pytest.raises(ValueError, match="lower < upper"):
+        ScalingFactors((0.0, 0.0), (1.0, 1.0))
+
+
+def test_replan_with_the_same_c1_changes_nothing(reference):
+    stages = reference.Stages(0.0)
+    for j in range(len(stages)):
+        assert reference.Replan(stages, j, 0.0) == stages
+    # From the approach on, everything but the (kept) approach circle is the c1 = −1000 plan.
+    assert reference.Replan(stages, 0, -1000.0)[1:] == reference.Stages(-1000.0)[1:]
+
+
+@pytest.mark.parametrize("current", [5, 6, 7, 8])  # rep 1: primitives 0, 1, 2, 3
+def test_replan_keeps_the_current_stage_and_moves_later_ones(reference, current):
+    old = reference.Stages(0.0)
+    new = reference.Replan(old, current, -1000.0)
+    assert new[: current + 1] == old[: current + 1]
+    assert all(s.c1 == -1000.0 for s in new[current + 1 :])
+    assert len(new) < len(old)
+    # The first r2 circle not yet started gets the new radius; the lines after it move with the
+    # new shift from where that circle ends.
+    k_turn = next(s for s in new[current + 1 :] if s.primitive == 3)
+    if old[current].primitive == 3:
+        assert k_turn.index == current + 4
+    assert k_turn.path.radius == pytest.approx(R2_MIN)
+    downs = [_line_x(s) for s in new if s.primitive == 0 and s.index > k_turn.index]
+    up_before = _line_x(new[k_turn.index - 1])
+    assert downs[0] == pytest.approx(up_before - 2 * R2_MIN)
+    np.testing.assert_allclose(np.diff(downs), 150.0 - 2 * R2_MIN)
+    # Replanning from every point stays continuous and tangent.
+    for prev, st in zip(new, new[1:], strict=False):
+        assert st.entry == pytest.approx(prev.trigger, abs=1e-9)
+
+
+def test_replan_back_and_forth_is_consistent(reference):
+    a = reference.Replan(reference.Stages(0.0), 9, -1000.0)
+    b = reference.Replan(a, 14, 0.0)
+    assert b[:15] == a[:15]
+    # From stage 14 (rep 3, primitive 1) on, the rest is the c1 = 0 pattern shifted by 10 m.
+    downs = [_line_x(s) for s in b if s.primitive == 0]
+    np.testing.assert_allclose(np.diff(downs[3:]), 10.0)
+
+
+def test_remaining_fraction_falls_from_one_to_zero(reference):
+    stages = reference.Stages(0.0)
+    fractions = [reference.RemainingFraction(stages, j) for j in range(len(stages))]
+    assert fractions[0] == 1.0 and fractions[1] == 1.0
+    assert np.all(np.diff(fractions[1:]) < 0)
+    last = stages[-1]
+    assert reference.RemainingFraction(stages, len(stages) - 1, last.trigger) == 0.0
+    mid = reference.RemainingFraction(stages, 30)
+    assert mid == pytest.approx(0.5, abs=0.05)
+    # Nearly independent of c1: re-planning half-way to c1 = −1000 changes it by less than one
+    # repetition's share (the number of repetitions left is an integer at each c1).
+    replanned = reference.Replan(stages, 30, -1000.0)
+    new = reference.RemainingFraction(replanned, 30)
+    rep = sum(s.length for s in reference.Stages(-1000.0)[1:5])
+    assert abs(new - mid) < rep / reference.SurveyLength(-1000.0)
+    assert new * reference.SurveyLength(-1000.0) == pytest.approx(
+        sum(s.length for s in replanned[30:])
+    )
+
+
+def test_rotated_and_reordered_polygon_gives_the_rotated_plan():
+    ref = ZamboniCoverage(CoverageParams(), start=(-100.0, 220.0))
+    angle = math.radians(30.0)
+    R = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+    pivot = np.array([10.0, -20.0])
+
+    def rot(p):
+        return R @ (np.asarray(p) - pivot) + pivot
+
+    poly = [rot(v).tolist() for v in CoverageParams().polygon]
+    # Counter-clockwise order, and a shuffled order: the edge (v0, v1) keeps its meaning.
+    ccw = [poly[1], poly[2], poly[3], poly[0]][::-1]  # v0, v3, v2, v1: edge (v1, v0) = 3
+    shuffled = [poly[2], poly[0], poly[1], poly[3]]  # edge (v0, v1) = 1
+    for vertices, edge in ((poly, 0), (ccw, 3), (shuffled, 1)):
+        params = dc.replace(CoverageParams(), polygon=vertices, line_edge=edge)
+        plan = ZamboniCoverage(params, start=rot((-100.0, 220.0)))
+        for a, b in zip(ref.Stages(-400.0), plan.Stages(-400.0), strict=True):
+            assert b.trigger == pytest.approx(rot(a.trigger), abs=1e-9)
+            assert b.length == pytest.approx(a.length, rel=1e-9)
+            assert b.primitive == a.primitive
+        assert plan.CoverageTime(0.0, V_A) == pytest.approx(ref.CoverageTime(0.0, V_A))
+
+
+def test_trapezoid_lines_cover_their_swath_and_turns_are_tangent():
+    # Lines parallel to the bottom edge (edge 0), the polygon narrows towards the top.
+    params = dc.replace(
+        CoverageParams(),
+        polygon=[[0.0, 0.0], [400.0, 0.0], [330.0, 320.0], [60.0, 320.0]],
+        line_edge=0,
+    )
+    plan = ZamboniCoverage(params, start=(0.0, -150.0))
+    poly = plan.polygon
+    assert poly.width == pytest.approx(320.0)
+    assert poly.e2 == pytest.approx([0.0, 1.0])  # sweep towards +y (into the polygon)
+    stages = plan.Stages(0.0)
+    for st in stages:
+        if st.primitive in (0, 2):
+            a, bx, by, c = st.path.descriptor()[:4]
+            assert abs(bx) < 1e-12  # parallel to the bottom edge
+            y = -c / by
+            ends = sorted([st.entry[0], st.trigger[0]])
+            lo, hi = poly.BandExtent(poly.origin @ poly.e2 + y, params.swath_spacing / 2)
+            # The line spans at least the polygon's extent over its swath band.
+            assert ends[0] <= lo + 1e-9 and ends[1] >= hi - 1e-9
+    for prev, st in zip(stages, stages[1:], strict=False):
+        t_prev, t_next = prev.TriggerTangent(), st.path.tangent(st.entry)
+        assert t_next / np.linalg.norm(t_next) == pytest.approx(t_prev, abs=1e-9)
+    ups = [s for s in stages if s.primitive == 2]
+    assert -ups[-1].path.c / ups[-1].path.b[1] <= 320.0 - 5.0 + 1e-9
+
+
+def test_polygon_band_extent_of_a_triangle():
+    poly = CoveragePolygon([[0.0, 0.0], [0.0, 100.0], [100.0, 0.0]], line_edge=0)
+    # Edge 0 is the y-axis; e2 = +x; e1 = −y: ξ = −y. At x = 50 the chord is y ∈ [0, 50].
+    assert poly.width == pytest.approx(100.0)
+    assert poly.Chord(50.0) == pytest.approx((-50.0, 0.0))
+    assert poly.BandExtent(50.0, 5.0) == pytest.approx((-55.0, 0.0))
+
+
+@pytest.mark.parametrize(
+    "polygon, edge, match",
+    [
+        ([[0, 0], [100, 0], [30, 30], [0, 100]], 0, "non-convex.*vertex 2"),
+        ([[0, 0], [100, 0], [200, 0]], 0, "degenerate.*collinear"),
+        ([[0, 0], [100, 0], [100, 0], [0, 100]], 0, "degenerate.*coincide"),
+        ([[0, 0], [100, 0]], 0, "degenerate.*3 vertices"),
+        ([[0, 0], [50, 0], [100, 0], [0, 100]], 0, "degenerate.*straight edge"),
+        ([[0, 0], [300, 300], [300, 0], [0, 300]], 0, "line_edge.*diagonal"),
+        ([[0, 0], [300, 0], [300, 300], [0, 300]], 4, r"line_edge.*\[0, 3\]"),
+        ([[0, 0], [0, 150], [300, 150], [300, 0]], 1, "too small for one repetition.*160"),
+        ([[0, float("nan")], [0, 150], [300, 150]], 0, "finite"),
+    ],
+)
+def test_bad_polygons_are_rejected_with_a_clear_message(polygon, edge, match):
+    params = dc.replace(CoverageParams(), polygon=polygon, line_edge=edge)
+    with pytest.raises(ValueError, match=match):
+        ZamboniCoverage(params)
+
+
+def test_scenario_validation_checks_the_geometry():
+    bad = dc.replace(CoverageParams(), polygon=[[0, 0], [100, 0], [30, 30], [0, 100]])
+    with pytest.raises(ScenarioError, match=r"^coverage.polygon: non-convex"):
+        bad.Validate()
+    with pytest.raises(ScenarioError, match=r"^coverage.trigger_radius"):
+        dc.replace(CoverageParams(), trigger_radius=-1.0).Validate()
+    CoverageParams().Validate()
+
+
+def test_bad_radii_and_path_parameters_are_rejected(reference):
+    with pytest.raises(ValueError, match=r"min_turning_radius.*r_min = 80.*r = 70"):
+        ZamboniCoverage(dc.replace(CoverageParams(), min_turning_radius=80.0))
+    with pytest.raises(ValueError, match="swath_spacing"):
+        ZamboniCoverage(dc.replace(CoverageParams(), swath_spacing=0.0))
+    for c1 in (-1000.1, 1.0, float("nan")):
+        with pytest.raises(ValueError, match=r"c1 must be in \[-1000, 0\]"):
+            reference.Stages(c1)
+    with pytest.raises(ValueError, match="c1 must be in"):
+        reference.Replan(reference.Stages(0.0), 3, -2000.0)
+    with pytest.raises(ValueError, match="initial.*c1"):
+        MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=10.0)
+
+
+def test_make_coverage_plan_uses_the_vehicle():
+    vehicle = dc.replace(VehicleParams(), initial_position=[-45.0, 250.0], airspeed=20.0)
+    plan = MakeCoveragePlan(CoverageParams(), vehicle, c1=-500.0, k_e=0.07)
+    assert plan.initial_c1 == -500.0 and plan.airspeed == 20.0
+    first = plan.Stages(-500.0)[0]
+    assert first.path.k_e == 0.07
+    # The approach runs counter-clockwise from the start's bearing to the circle's left point.
+    r2 = TurningRadius2(-500.0, 70.0)
+    assert first.path.center == pytest.approx([-115.0 + r2, 146.0])
+    bearing = math.atan2(250.0 - 146.0, -45.0 - (-115.0 + r2))
+    assert first.length == pytest.approx((math.pi - bearing) * r2, rel=1e-12)
+    lo, hi = plan.CoverageTimeBounds((-1000.0, 0.0))
+    assert lo == pytest.approx(plan.CoverageTime(-1000.0, 20.0))
+    assert hi == pytest.approx(plan.CoverageTime(0.0, 20.0))
+
+
+def test_path_length_helper():
+    c = Circle((0.0, 0.0), 10.0, s=-1.0)  # ccw
+    assert PathLength(c, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 5.0)
+    assert PathLength(c, (0.0, 10.0), (10.0, 0.0)) == pytest.approx(math.pi * 15.0)
+    cw = dc.replace(c, s=1.0)
+    assert PathLength(cw, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 15.0)
