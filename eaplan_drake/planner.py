@@ -402,9 +402,11 @@ class PlannerSolution:
     slack: np.ndarray | None
     """Output-constraint slack per step [W], None if the solve failed."""
     soc_prediction: np.ndarray
-    """SoC at the N + 1 nodes under the mapped trajectory (exact g, Simpson) [-]."""
+    """SoC at the N + 1 nodes under the mapped trajectory (exact g, Simpson) [-]; NaN after a
+    failed solve (no prediction)."""
     time_to_reserve: float
-    """t_b [s] until the reserve SoC (or brown-out) under the mapped trajectory, capped."""
+    """t_b [s] until the reserve SoC (or brown-out) under the mapped trajectory, capped at the
+    longest coverage time; NaN after a failed solve (no prediction)."""
     success: bool
     """The NLP solved (False: fallback to the lowest parameters)."""
     feasible: bool
@@ -569,7 +571,7 @@ class Planner:
             relaxed_computation=None,
             slack=None,
             soc_prediction=np.full(N + 1, np.nan),
-            time_to_reserve=0.0,
+            time_to_reserve=math.nan,
             success=False,
             feasible=False,
             status=status,
