@@ -80,19 +80,28 @@ def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Di
         )
     c1_0 = scenario.planner.initial_path_parameters[0]
     if scenario.coverage.plan_file:
-        plan = LoadPlanFile(scenario.coverage.plan_file, c1=c1_0, k_e=scenario.guidance.k_e)
+        plan = LoadPlanFile(
+            scenario.coverage.plan_file,
+            vehicle=scenario.vehicle,
+            c1=c1_0,
+            k_e=scenario.guidance.k_e,
+        )
     else:
         plan = MakeCoveragePlan(
             scenario.coverage, scenario.vehicle, c1=c1_0, k_e=scenario.guidance.k_e
         )
 
-    wind = builder.AddNamedSystem(
-        "wind", ConstantVectorSource(WindVector(scenario.wind.speed, scenario.wind.direction_deg))
-    )
+    w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
+    wind = builder.AddNamedSystem("wind", ConstantVectorSource(w))
     plant = builder.AddNamedSystem("plant", FixedWingPlant(scenario.vehicle))
     sequencer = builder.AddNamedSystem(
         "sequencer",
-        StageSequencer(plan, initial_period=scenario.energy_model.initial_period),
+        StageSequencer(
+            plan,
+            initial_c1=c1_0,
+            trigger_radius=scenario.coverage.trigger_radius,
+            initial_period=scenario.energy_model.initial_period,
+        ),
     )
     guidance = builder.AddNamedSystem(
         "guidance",
@@ -100,6 +109,7 @@ def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Di
             airspeed=scenario.vehicle.airspeed,
             guidance=scenario.guidance,
             max_heading_rate=MaxHeadingRate(scenario.vehicle),
+            wind_speed=scenario.wind.speed,
         ),
     )
     computation = builder.AddNamedSystem("computation", ComputationLoad(table))
@@ -121,8 +131,12 @@ def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Di
             table=table,
             order=scenario.energy_model.order,
             battery=scenario.battery,
-            coverage_time_bounds=plan.CoverageTimeBounds(scenario.planner.path_parameter_bounds),
+            # t(c1) at the bounds in the scenario's wind (the planner's Eq. 10 model).
+            coverage_time_bounds=plan.CoverageTimeBounds(
+                scenario.planner.path_parameter_bounds, scenario.vehicle.airspeed, w
+            ),
             initial_computation_parameters=scenario.computation.initial_parameters,
+            integer=scenario.computation.integer,
         ),
     )
 
