@@ -15,9 +15,11 @@ stays active afterwards.
 The period T [s] is the time between two entries into the same primitive stage (a configured first
 guess until one has been measured). A change of ``path_parameters`` (c1, clipped into the plan's
 range; NaN ignored) re-plans the stages after the active one (the active line or circle is kept).
-``coverage_remaining`` is the fraction [0, 1] of the survey length still to fly (see
-:mod:`eaplan_drake.coverage`), c1-independent in the sense that fraction · t(c1) estimates the
-remaining time at any c1.
+``coverage_remaining`` is the fraction [0, 1] of the survey still to fly: the rest of the current
+stage plus the survey length of the remaining stages *as if flown at the reference c1 = c̄1* (the
+finest coverage), over the survey length of the whole plan at c̄1. It measures the area left, so it
+does not jump when c1 is re-planned (whole repetitions would make a ratio at the current c1 jump),
+and fraction · t(c1) estimates the remaining time at any c1 (paper 003 Alg. 2 l. 25).
 
 All of it lives in one discrete state vector (stage index, c1, entry times, period, the active
 stage's descriptor and trigger geometry, ...); the plan itself is a pure, cached function of
@@ -167,7 +169,10 @@ class StageSequencer(LeafSystem):
         x0[L.c1] = c1
         x0[L.period] = initial_period
         x0[L.entries] = -1.0
-        self._LoadStage(x0, stages[0], stages[1:], plan.SurveyLength(c1))
+        # The remaining fraction is measured in survey lengths at the reference c1 = c̄1 (the
+        # finest coverage), so that it does not jump when c1 is re-planned.
+        self._c1_ref = self._c1_hi
+        self._LoadStage(x0, stages[0], plan.SurveyLength(self._c1_ref))
         x0[L.remaining] = self._Fraction(x0, None)
         self._state_index = self.DeclareDiscreteState(BasicVector(x0))
         self.DeclarePeriodicDiscreteUpdateEvent(
@@ -243,7 +248,12 @@ class StageSequencer(LeafSystem):
 
     # -- internals -------------------------------------------------------------------------------
 
-    def _LoadStage(self, x, stage: Stage, rest, total: float) -> None:
+    def _RestLength(self, stage: Stage) -> float:
+        """Survey length [m] after ``stage`` if the rest were flown at the reference c1."""
+        rest = self._plan.StagesAfter(stage.index, tuple(stage.anchor), self._c1_ref)
+        return float(sum(s.length for s in rest if s.primitive != APPROACH))
+
+    def _LoadStage(self, x, stage: Stage, total: float) -> None:
         L = self._layout
         x[L.index] = stage.index
         x[L.descriptor] = stage.path.descriptor()
@@ -263,7 +273,7 @@ class StageSequencer(LeafSystem):
         x[L.primitive] = stage.primitive
         x[L.length] = stage.length
         x[L.anchor] = stage.anchor
-        x[L.rest] = sum(s.length for s in rest if s.primitive != APPROACH)
+        x[L.rest] = self._RestLength(stage)
         x[L.total] = total
 
     def _Fraction(self, x, p) -> float:
@@ -322,10 +332,7 @@ class StageSequencer(LeafSystem):
                 c1_in = min(max(c1_in, self._c1_lo), self._c1_hi)
                 if abs(c1_in - c1) > 1e-9:
                     c1 = c1_in
-                    rest = plan.StagesAfter(index, tuple(x[L.anchor]), c1)
                     x[L.c1] = c1
-                    x[L.rest] = sum(s.length for s in rest if s.primitive != APPROACH)
-                    x[L.total] = plan.SurveyLength(c1)
         if math.isfinite(px) and math.isfinite(py):
             t = context.get_time()
             for _ in range(8):  # several zero-length stages may fire at once
@@ -335,7 +342,7 @@ class StageSequencer(LeafSystem):
                 if not rest:
                     x[L.complete] = 1.0
                     break
-                self._LoadStage(x, rest[0], rest[1:], x[L.total])
+                self._LoadStage(x, rest[0], x[L.total])
                 index = rest[0].index
                 k = rest[0].primitive
                 if 0 <= k < self._num_primitives:
