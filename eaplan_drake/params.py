@@ -347,7 +347,7 @@ class PlannerParams:
     """h_T, re-planning step [s]."""
     horizon: int = 6
     """N, horizon in steps of h_T [-]."""
-    warmup: float = 92.0
+    warmup: float = 80.0
     """Time before the planner acts [s] (≈ two periods of energy data)."""
     path_parameter_bounds: list[float] = dc.field(default_factory=lambda: [-1000.0, 0.0])
     """[c1_min, c1_max] [m²]; c1_min must be >= r_min² − r²."""
@@ -355,6 +355,8 @@ class PlannerParams:
     """c1(0) [m²]."""
     path_parameter_step: float = 500.0
     """δ1, largest change of c1 per re-planning step [m²] (rate limit)."""
+    path_parameter_deadband: float = 250.0
+    """Hysteresis on c1 [m²]: a rise smaller than this is not taken (cuts always are)."""
     computation_parameter_step: float = 2.0
     """δ2, grid step of integer computation parameters [table units]."""
     path_weight: float = 1.0
@@ -385,6 +387,7 @@ class PlannerParams:
         for i, c in enumerate(self.initial_path_parameters):
             _in_range(c, f"{key}.initial_path_parameters[{i}]", lo, hi)
         _positive(self.path_parameter_step, f"{key}.path_parameter_step")
+        _nonnegative(self.path_parameter_deadband, f"{key}.path_parameter_deadband")
         _positive(self.computation_parameter_step, f"{key}.computation_parameter_step")
         _nonnegative(self.path_weight, f"{key}.path_weight")
         _nonnegative(self.computation_weight, f"{key}.computation_weight")

@@ -172,11 +172,14 @@ def ChoosePathParameter(
     model: CoverageTimeModel,
     previous: float | None = None,
     max_step: float = math.inf,
+    deadband: float = 0.0,
 ) -> float:
     """Alg. 2 l. 24–27: the largest c1 with coverage_remaining · t(c1) ≤ t_b, else c̲1.
 
     Closed form from the linear model (Eq. 10); then c1 moves from ``previous`` towards it by at
-    most ``max_step`` [m²] (rate limit; no limit when ``previous`` is None).
+    most ``max_step`` [m²] (rate limit; no limit when ``previous`` is None). Hysteresis: a rise
+    smaller than ``deadband`` [m²] is not taken (cuts always are), so that the jump of the
+    remaining fraction after a re-plan (whole repetitions) does not make c1 chatter.
     """
     lo, hi = model.bounds
     t_b = max(float(time_to_reserve), 0.0)
@@ -189,6 +192,8 @@ def ChoosePathParameter(
         target = min(max((t_b / fraction - model.tau) / model.nu, lo), hi)
     if previous is None or not math.isfinite(previous):
         return target
+    if previous < target < previous + deadband:
+        return float(previous)
     return min(max(target, previous - max_step), previous + max_step)
 
 
@@ -643,6 +648,7 @@ class Planner:
             self.coverage_time,
             previous=path_parameter,
             max_step=float(self.params.path_parameter_step),
+            deadband=float(self.params.path_parameter_deadband),
         )
         warm = np.concatenate(
             (

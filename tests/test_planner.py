@@ -143,7 +143,9 @@ def test_plenty_of_battery_gives_highest_configuration(planner, table):
     # c1: t_b is long enough for the remaining half survey at c1 = 0 (rate limit 500 per step).
     assert sol.time_to_reserve > 0.5 * COVERAGE_TIMES[1]
     assert sol.path_parameter == -500.0
-    assert planner.Plan(Q_REF, 1.0, PERIOD, 0.5, [10.0], -100.0).path_parameter == 0.0
+    # A rise smaller than the deadband (250 m²) is held; a larger one is taken.
+    assert planner.Plan(Q_REF, 1.0, PERIOD, 0.5, [10.0], -100.0).path_parameter == -100.0
+    assert planner.Plan(Q_REF, 1.0, PERIOD, 0.5, [10.0], -300.0).path_parameter == 0.0
 
 
 def test_budget_below_lowest_power_gives_lowest_and_uses_slack(planner, table):
@@ -270,6 +272,10 @@ def test_path_rule_rate_limit_and_edges():
     assert ChoosePathParameter(0.0, 1.0, model, previous=0.0, max_step=300.0) == -300.0
     assert ChoosePathParameter(0.0, 0.0, model) == 0.0  # nothing left to cover
     assert ChoosePathParameter(100.0, 1.0, model) == -1000.0  # even c̲1 does not fit
+    # Hysteresis: a rise below the deadband is held, a cut is always taken.
+    assert ChoosePathParameter(1e9, 1.0, model, previous=-100.0, deadband=250.0) == -100.0
+    assert ChoosePathParameter(1e9, 1.0, model, previous=-300.0, deadband=250.0) == 0.0
+    assert ChoosePathParameter(0.0, 1.0, model, previous=-990.0, deadband=250.0) == -1000.0
     with pytest.raises(ValueError, match="coverage_time_bounds"):
         CoverageTimeModel((-1000.0, 0.0), (706.0, 270.0))
 
