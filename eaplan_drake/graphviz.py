@@ -19,13 +19,26 @@ _ID = re.compile(r"(digraph _|clusters|cluster|\bs)(\d+)")
 
 
 def CanonicalDot(dot: str) -> str:
-    """Renumbers Drake's system ids in a DOT string 0, 1, 2, … in order of first appearance."""
+    """Renumbers Drake's system ids in a DOT string 0, 1, 2, … in order of first appearance and
+    sorts each run of edge lines."""
     ids: dict[str, int] = {}
 
     def renumber(m: re.Match) -> str:
         return m.group(1) + str(ids.setdefault(m.group(2), len(ids)))
 
-    return _ID.sub(renumber, dot)
+    lines = _ID.sub(renumber, dot).split("\n")
+    # Drake emits the edges of a diagram in an order that varies between processes: sort each
+    # run of consecutive edge lines.
+    out, edges = [], []
+    for line in lines:
+        if " -> " in line:
+            edges.append(line)
+            continue
+        out.extend(sorted(edges))
+        edges = []
+        out.append(line)
+    out.extend(sorted(edges))
+    return "\n".join(out)
 
 
 def DiagramDots(scenario: Scenario | None = None) -> dict[str, str]:
