@@ -413,10 +413,24 @@ class SimulationParams:
     """Stop after this much simulated time [s] if nothing else ended the flight."""
     log_period: float = 0.1
     """Sampling period of the flight log [s]."""
+    integrator: str = "runge_kutta2"
+    """Drake integrator scheme of the aircraft's continuous state (``ResetIntegratorFromFlags``
+    names: runge_kutta2, runge_kutta3, runge_kutta5, explicit_euler, ...)."""
+    max_step: float = 0.01
+    """Integrator (maximum) step [s]; the 100 Hz sensor events cap the step at 0.01 s anyway."""
 
     def Validate(self, key: str = "simulation") -> None:
         _positive(self.time_limit, f"{key}.time_limit")
         _positive(self.log_period, f"{key}.log_period")
+        from pydrake.systems.analysis import GetIntegrationSchemes
+
+        schemes = GetIntegrationSchemes()
+        _check(
+            self.integrator in schemes,
+            f"{key}.integrator",
+            f"must be one of {', '.join(schemes)}, got {self.integrator!r}",
+        )
+        _positive(self.max_step, f"{key}.max_step")
 
 
 @dc.dataclass

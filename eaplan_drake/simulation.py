@@ -22,7 +22,7 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import EventStatus
 
 from eaplan_drake.diagram import LOGGED_SIGNALS, MakeEaplanDiagram
@@ -163,6 +163,9 @@ def Simulate(
     wall_start = time.perf_counter()
     diagram = MakeEaplanDiagram(scenario)
     simulator = Simulator(diagram)
+    ResetIntegratorFromFlags(
+        simulator, scenario.simulation.integrator, scenario.simulation.max_step
+    )
     context = simulator.get_mutable_context()
     complete_port = diagram.GetOutputPort("mission_complete")
     soc_port = diagram.GetOutputPort("soc")
