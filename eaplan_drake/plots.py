@@ -48,11 +48,14 @@ def PlotPath(ax, log: FlightLog, scenario: Scenario) -> None:
     base = lo + 0.08 * (hi - lo)
     scale = 0.12 * np.max(hi - lo) / max(np.linalg.norm(w), 1e-9)
     ax.annotate(
+        "", xy=base + scale * w, xytext=base, arrowprops={"arrowstyle": "->", "color": "tab:red"}
+    )
+    ax.text(
+        *(base - np.array([0.0, 0.03 * (hi - lo)[1]])),
         f"wind {scenario.wind.speed:g} m/s",
-        xy=base + scale * w,
-        xytext=base,
-        arrowprops={"arrowstyle": "->", "color": "tab:red"},
         color="tab:red",
+        va="top",
+        fontsize="small",
     )
     ax.set_aspect("equal")
     ax.autoscale_view()
