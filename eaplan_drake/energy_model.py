@@ -133,6 +133,16 @@ def _regressors(tau: np.ndarray, order: int, period: float) -> np.ndarray:
     return X
 
 
+def _FiniteSamples(times, power) -> tuple[np.ndarray, np.ndarray]:
+    """(t, y) as flat float arrays of equal length with non-finite samples dropped."""
+    t = np.asarray(times, dtype=float).reshape(-1)
+    y = np.asarray(power, dtype=float).reshape(-1)
+    if t.shape != y.shape:
+        raise ValueError(f"times and power must have the same length, got {t.size}, {y.size}")
+    keep = np.isfinite(t) & np.isfinite(y)
+    return t[keep], y[keep]
+
+
 def FitFourierSeries(times, power, order: int, period: float, at_time: float | None = None):
     """Least-squares fit of a recorded power signal: q at ``at_time`` (default times[0]) [W].
 
@@ -142,12 +152,7 @@ def FitFourierSeries(times, power, order: int, period: float, at_time: float | N
     """
     r = _check_order(order)
     T = _check_positive(period, "period")
-    t = np.asarray(times, dtype=float).reshape(-1)
-    y = np.asarray(power, dtype=float).reshape(-1)
-    if t.shape != y.shape:
-        raise ValueError(f"times and power must have the same length, got {t.size}, {y.size}")
-    keep = np.isfinite(t) & np.isfinite(y)
-    t, y = t[keep], y[keep]
+    t, y = _FiniteSamples(times, power)
     m = 2 * r + 1
     if t.size < m:
         raise ValueError(f"FitFourierSeries: needs at least m = {m} finite samples, got {t.size}")
@@ -176,12 +181,7 @@ def EstimatePeriod(times, power, min_period: float | None = None, max_period: fl
     max_period = half the record (so that at least two periods are seen). Raises ValueError if
     there is no interior maximum in that range.
     """
-    t = np.asarray(times, dtype=float).reshape(-1)
-    y = np.asarray(power, dtype=float).reshape(-1)
-    if t.shape != y.shape:
-        raise ValueError(f"times and power must have the same length, got {t.size}, {y.size}")
-    keep = np.isfinite(t) & np.isfinite(y)
-    t, y = t[keep], y[keep]
+    t, y = _FiniteSamples(times, power)
     if t.size < 8 or not np.all(np.diff(t) > 0.0):
         raise ValueError("EstimatePeriod: needs >= 8 finite samples at increasing times")
     dt = float(np.median(np.diff(t)))
