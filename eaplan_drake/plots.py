@@ -12,7 +12,7 @@ from matplotlib.collections import LineCollection
 
 from eaplan_drake.diagram import WindVector
 from eaplan_drake.params import Scenario
-from eaplan_drake.simulation import FlightLog
+from eaplan_drake.simulation import FlightLog, NormaliseParameters
 
 __all__ = [
     "PlotFlight",
@@ -24,12 +24,6 @@ __all__ = [
 ]
 
 
-def _Quality(log: FlightLog, scenario: Scenario) -> np.ndarray:
-    lo, hi = scenario.planner.path_parameter_bounds
-    c1 = log["path_parameters"][:, 0]
-    return np.clip((c1 - lo) / max(hi - lo, 1e-12), 0.0, 1.0)
-
-
 def PlotPath(ax, log: FlightLog, scenario: Scenario) -> None:
     """Flown path over the survey polygon, coloured by the normalised path parameter c̃1, with
     the wind arrow."""
@@ -38,7 +32,8 @@ def PlotPath(ax, log: FlightLog, scenario: Scenario) -> None:
     ax.fill(poly[:, 0], poly[:, 1], color="0.92", zorder=0, label="survey area")
     segments = np.stack([p[:-1], p[1:]], axis=1)
     lc = LineCollection(segments, cmap="viridis", norm=plt.Normalize(0.0, 1.0), linewidth=1.2)
-    lc.set_array(_Quality(log, scenario)[:-1])
+    lo, hi = scenario.planner.path_parameter_bounds
+    lc.set_array(NormaliseParameters(log["path_parameters"][:-1, 0], lo, hi))
     ax.add_collection(lc)
     ax.figure.colorbar(lc, ax=ax, label="c̃1 (normalised path parameter)")
     ax.plot(*p[0], "ko", ms=4, label="start")

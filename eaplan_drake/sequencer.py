@@ -24,20 +24,7 @@ and fraction · t(c1) estimates the remaining time at any c1 (paper 003 Alg. 2 l
 All of it lives in one discrete state vector (stage index, c1, entry times, period, the active
 stage's descriptor and trigger geometry, ...); the plan itself is a pure, cached function of
 (stage, c1) held by the plan source, so the context is the whole state. Outputs depend on the state
-only (no direct feedthrough).
-
-.. pydrake_system::
-
-    name: StageSequencer
-    input_ports:
-    - position
-    - path_parameters
-    output_ports:
-    - path
-    - stage
-    - period
-    - coverage_remaining
-    - mission_complete
+only (no direct feedthrough). Ports: see :class:`StageSequencer`.
 """
 
 import math

@@ -32,6 +32,7 @@ __all__ = [
     "FlightLog",
     "LoadFlightLog",
     "LoadNamedScenario",
+    "NormaliseParameters",
     "QualityMetric",
     "REFERENCE_SCENARIOS",
     "Simulate",
@@ -127,10 +128,10 @@ def QualityMetric(
     averaged into c̃2.
     """
     lo, hi = path_bounds
-    c1n = _Normalise(np.asarray(path_parameters, dtype=float)[:, 0], lo, hi)
+    c1n = NormaliseParameters(np.asarray(path_parameters, dtype=float)[:, 0], lo, hi)
     clo, chi = (np.asarray(b, dtype=float) for b in computation_bounds)
     c2 = np.asarray(computation_parameters, dtype=float).reshape(len(times), -1)
-    c2n = np.mean(_Normalise(c2, clo, chi), axis=1)
+    c2n = np.mean(NormaliseParameters(c2, clo, chi), axis=1)
     mean_c1 = _TimeMean(times, c1n)
     mean_c2 = _TimeMean(times, c2n)
     margin = final_soc - reserve_soc
@@ -139,7 +140,8 @@ def QualityMetric(
     return (0.5 * mean_c1 + 0.5 * mean_c2) / margin, mean_c1, mean_c2
 
 
-def _Normalise(c, lo, hi):
+def NormaliseParameters(c, lo, hi):
+    """c̃ = (c − lo) / (hi − lo) clipped to [0, 1] (0 where the bounds coincide)."""
     span = np.where(np.asarray(hi) > np.asarray(lo), np.asarray(hi) - np.asarray(lo), 1.0)
     return np.clip((c - lo) / span, 0.0, 1.0)
 
