@@ -236,6 +236,15 @@ class PlanSource:
             if include_approach or s.primitive != APPROACH
         )
 
+    def TimeAfter(
+        self, index: int, anchor: tuple[float, ...], c1: float, airspeed: float, wind=(0.0, 0.0)
+    ) -> float:
+        """Exact nominal time [s] to fly every stage after stage ``index`` (with its ``anchor``)
+        when the rest of the plan is flown with c1, at ``airspeed`` [m/s] in constant ``wind``
+        [m/s]: the staircase t(c1) of whole repetitions, not the Eq. 10 line."""
+        c1 = min(max(float(c1), self.c1_bounds[0]), self.c1_bounds[1])
+        return float(sum(StageTime(s, airspeed, wind) for s in self.StagesAfter(index, anchor, c1)))
+
     def CoverageTimeBounds(
         self, c1_bounds=None, airspeed: float | None = None, wind=(0.0, 0.0)
     ) -> tuple[float, float]:

@@ -10,11 +10,12 @@
          │               └────────► Battery ──────────┘            │ computation_parameters
          └─────────────────────────────────────────────────────────┘
 
-A static plan (paper 003 plans I and II) is the same diagram with ``planner.enabled: false``: the
-planner then holds its initial parameters. Every system is named (``plant``, ``sequencer``,
-``guidance``, ``computation``, ``sensor``, ``estimator``, ``battery``, ``planner``, ``wind``), the
-key signals are exported as diagram output ports of the same names, and each logged signal has a
-``VectorLogSink`` named ``log_<signal>`` (see :data:`LOGGED_SIGNALS`).
+The planner's policy is ``scenario.planner.policy`` (:func:`~eaplan_drake.policies.MakePolicy`)
+or any :class:`~eaplan_drake.planner.PlannerPolicy` passed as ``policy``; a static plan (paper 003
+plans I and II) is the same diagram with ``planner.policy: static``. Every system is named
+(``plant``, ``sequencer``, ``guidance``, ``computation``, ``sensor``, ``estimator``, ``battery``,
+``planner``, ``wind``), the key signals are exported as diagram output ports of the same names,
+and each logged signal has a ``VectorLogSink`` named ``log_<signal>`` (see :data:`LOGGED_SIGNALS`).
 """
 
 import numpy as np
@@ -28,8 +29,9 @@ from eaplan_drake.estimator import EnergyEstimator
 from eaplan_drake.guidance import VectorFieldGuidance
 from eaplan_drake.params import Scenario
 from eaplan_drake.planfile import LoadPlanFile
-from eaplan_drake.planner import PlannerScheduler
+from eaplan_drake.planner import PlannerPolicy, PlannerScheduler
 from eaplan_drake.plant import FixedWingPlant, MaxHeadingRate
+from eaplan_drake.policies import MakePolicy
 from eaplan_drake.sensor import PowerSensor
 from eaplan_drake.sequencer import StageSequencer
 
@@ -53,6 +55,7 @@ LOGGED_SIGNALS = {
     "brownout": ("battery", "brownout"),
     "path_parameters": ("planner", "path_parameters"),
     "computation_parameters": ("planner", "computation_parameters"),
+    "mission_feasible": ("planner", "mission_feasible"),
 }
 """Signals logged by :func:`MakeEaplanDiagram` (``VectorLogSink`` named ``log_<name>``)."""
 
@@ -63,10 +66,17 @@ def WindVector(speed: float, direction_deg: float) -> np.ndarray:
     return speed * np.array([np.cos(theta), np.sin(theta)])
 
 
-def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Diagram:
+def MakeEaplanDiagram(
+    scenario: Scenario,
+    log_period: float | None = None,
+    *,
+    policy: PlannerPolicy | None = None,
+) -> Diagram:
     """Builds the closed-loop diagram of ``scenario`` (validated first).
 
     ``log_period`` [s] overrides ``scenario.simulation.log_period``; 0 disables the loggers.
+    ``policy`` replaces the policy that ``scenario.planner.policy`` names (a Python user's own
+    :class:`~eaplan_drake.planner.PlannerPolicy`).
     """
     scenario.Validate()
     builder = DiagramBuilder()
@@ -92,6 +102,20 @@ def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Di
         )
 
     w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
+    grid = scenario.planner.PathParameterGrid()
+    if policy is None:
+        policy = MakePolicy(
+            scenario.planner,
+            table,
+            scenario.energy_model.order,
+            scenario.battery,
+            # t(c1) at the bounds in the scenario's wind (the paper's Eq. 10 line).
+            coverage_time_bounds=plan.CoverageTimeBounds(
+                scenario.planner.path_parameter_bounds, scenario.vehicle.airspeed, w
+            ),
+            path_parameter_grid=grid,
+            integer=scenario.computation.integer,
+        )
     wind = builder.AddNamedSystem("wind", ConstantVectorSource(w))
     plant = builder.AddNamedSystem("plant", FixedWingPlant(scenario.vehicle))
     sequencer = builder.AddNamedSystem(
@@ -101,6 +125,9 @@ def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Di
             initial_c1=c1_0,
             trigger_radius=scenario.coverage.trigger_radius,
             initial_period=scenario.energy_model.initial_period,
+            airspeed=scenario.vehicle.airspeed,
+            wind=w,
+            path_parameter_grid=grid,
         ),
     )
     guidance = builder.AddNamedSystem(
@@ -127,16 +154,14 @@ def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Di
     planner = builder.AddNamedSystem(
         "planner",
         PlannerScheduler(
-            planner=scenario.planner,
+            policy,
             table=table,
             order=scenario.energy_model.order,
-            battery=scenario.battery,
-            # t(c1) at the bounds in the scenario's wind (the planner's Eq. 10 model).
-            coverage_time_bounds=plan.CoverageTimeBounds(
-                scenario.planner.path_parameter_bounds, scenario.vehicle.airspeed, w
-            ),
+            period=scenario.planner.period,
+            warmup=scenario.planner.warmup,
+            initial_path_parameter=c1_0,
             initial_computation_parameters=scenario.computation.initial_parameters,
-            integer=scenario.computation.integer,
+            path_parameter_grid_size=grid.size,
         ),
     )
 
@@ -163,7 +188,11 @@ def MakeEaplanDiagram(scenario: Scenario, log_period: float | None = None) -> Di
     connect(
         estimator.GetOutputPort("energy_coefficients"), planner.GetInputPort("energy_coefficients")
     )
+    connect(
+        estimator.GetOutputPort("mean_power_variance"), planner.GetInputPort("mean_power_variance")
+    )
     connect(battery.GetOutputPort("soc"), planner.GetInputPort("soc"))
+    connect(sequencer.GetOutputPort("remaining_time"), planner.GetInputPort("remaining_time"))
     connect(sequencer.GetOutputPort("period"), planner.GetInputPort("period"))
     connect(
         sequencer.GetOutputPort("coverage_remaining"), planner.GetInputPort("coverage_remaining")

@@ -33,6 +33,7 @@ __all__ = [
     "FourierMatrices",
     "FourierOutputMatrix",
     "FourierStateFromCoefficients",
+    "FreeResponseMatrix",
     "StateSize",
 ]
 
@@ -104,6 +105,21 @@ def DiscreteFourierMatrices(order: int, period: float, h: float) -> tuple[np.nda
     Bd = np.zeros((m, 1))
     Bd[0, 0] = 1.0
     return Ad, Bd
+
+
+def FreeResponseMatrix(order: int, period: float, step: float, num_points: int) -> np.ndarray:
+    """[C; C A_d; C A_d²; …] (num_points × m) for the exact A_d of ``step`` [s].
+
+    Row k times q̂ is the free response y(k·step) = C expm(A k·step) q̂ [W]. Powers of A_d are
+    stacked by doubling, so the cost is O(log num_points) small matrix products.
+    """
+    Ad, _ = DiscreteFourierMatrices(order, period, step)
+    rows = FourierOutputMatrix(order)
+    power = Ad
+    while rows.shape[0] < num_points:
+        rows = np.vstack((rows, rows @ power))
+        power = power @ power
+    return rows[:num_points]
 
 
 def FourierStateFromCoefficients(a0: float, a, b, period: float) -> np.ndarray:

@@ -90,7 +90,8 @@ class EnergyEstimator(LeafSystem):
     from :class:`EstimatorParams`; P(0) = p0 I.
 
     Outputs (from the state only): ``energy_coefficients`` q̂ (m = 2r + 1) [W],
-    ``estimated_power`` ŷ = C q̂ [W], ``covariance_trace`` tr P [W²].
+    ``estimated_power`` ŷ = C q̂ [W], ``covariance_trace`` tr P [W²], ``mean_power_variance``
+    P_00 = Var(α̂0) [W²].
     Discrete state (one vector): [q̂ (m), P row-major (m²), g at the previous step, T in use].
 
     .. pydrake_system::
@@ -104,6 +105,7 @@ class EnergyEstimator(LeafSystem):
         - energy_coefficients
         - estimated_power
         - covariance_trace
+        - mean_power_variance
     """
 
     def __init__(
@@ -162,6 +164,9 @@ class EnergyEstimator(LeafSystem):
         )
         self._covariance_trace_port = self.DeclareVectorOutputPort(
             "covariance_trace", 1, self._CalcTrace, prerequisites_of_calc=xd
+        )
+        self._mean_power_variance_port = self.DeclareVectorOutputPort(
+            "mean_power_variance", 1, self._CalcMeanVariance, prerequisites_of_calc=xd
         )
 
     @property
@@ -244,3 +249,7 @@ class EnergyEstimator(LeafSystem):
         m = self._m
         x = context.get_discrete_state(self._state_index).get_value()
         output.SetAtIndex(0, float(x[m : m + m * m][self._diag].sum()))
+
+    def _CalcMeanVariance(self, context: Context, output: BasicVector) -> None:
+        x = context.get_discrete_state(self._state_index).get_value()
+        output.SetAtIndex(0, float(x[self._m]))  # P_00: Var(α̂0) [W²]

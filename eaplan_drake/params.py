@@ -13,6 +13,8 @@ import math
 import typing
 from pathlib import Path
 
+import numpy as np
+
 __all__ = [
     "BatteryFault",
     "BatteryParams",
@@ -23,6 +25,7 @@ __all__ = [
     "GuidanceParams",
     "LoadScenario",
     "MotionPowerParams",
+    "POLICIES",
     "PlannerParams",
     "Scenario",
     "ScenarioError",
@@ -337,43 +340,79 @@ class EstimatorParams:
         _positive(self.measurement_noise, f"{key}.measurement_noise")
 
 
+POLICIES = ("mpc", "paper", "greedy", "greedy_authors", "static", "hindsight")
+"""Names of the planner policies (``planner.policy``); see :mod:`eaplan_drake.policies`."""
+
+
 @dc.dataclass
 class PlannerParams:
-    """Output MPC planner-scheduler (paper 003 Eq. 16, Alg. 2)."""
+    """Planner-scheduler: which policy decides c1 and c2, and its parameters.
 
-    enabled: bool = True
-    """False flies a static plan (parameters stay at their initial values)."""
+    ``policy`` selects (see :mod:`eaplan_drake.policies`): ``mpc`` (default: the mission-feasible
+    MPC of :mod:`eaplan_drake.mpc`), ``paper`` (paper 003 Eq. 16 + Alg. 2 as published, the
+    reproduction), ``greedy`` (one-step rule fed the MPC's signals), ``greedy_authors`` (the
+    authors' MATLAB rule), ``static`` (hold the initial parameters) and ``hindsight`` (the best
+    constant pair of a grid, each flown on the same world).
+    """
+
+    policy: str = "mpc"
+    """Planner policy, one of mpc, paper, greedy, greedy_authors, static, hindsight."""
     period: float = 1.0
     """h_T, re-planning step [s]."""
     horizon: int = 6
-    """N, horizon in steps of h_T [-]."""
-    warmup: float = 80.0
-    """Time before the planner acts [s] (≈ two periods of energy data)."""
+    """N, horizon in steps of h_T [-] (paper and greedy_authors policies)."""
+    warmup: float = 40.0
+    """Time before the planner acts [s]: about one period of energy data, before which the
+    estimated mean power α̂0 is unreliable (measured on the default flight: off by 20–75 W at
+    5–20 s, 6 W at 30 s, < 0.5 W from 40 s on). The paper waits ≈ two periods (80 s, pinned in
+    the reference scenarios)."""
     path_parameter_bounds: list[float] = dc.field(default_factory=lambda: [-1000.0, 0.0])
     """[c1_min, c1_max] [m²]; c1_min must be >= r_min² − r²."""
     initial_path_parameters: list[float] = dc.field(default_factory=lambda: [0.0])
     """c1(0) [m²]."""
+    path_parameter_grid_size: int = 21
+    """M, number of equally spaced c1 values over the bounds at which the sequencer reports the
+    exact remaining survey time; the c1 the mpc and greedy policies may choose [-], in [2, 201]."""
     path_parameter_step: float = 500.0
-    """δ1, largest change of c1 per re-planning step [m²] (rate limit)."""
+    """δ1, largest change of c1 per re-planning step [m²] (rate limit of the paper, greedy and
+    greedy_authors policies)."""
     path_parameter_deadband: float = 250.0
-    """Hysteresis on c1 [m²]: a rise smaller than this is not taken (cuts always are)."""
+    """Hysteresis on c1 [m²]: a rise smaller than this is not taken (cuts always are; paper
+    policy)."""
     computation_parameter_step: float = 2.0
     """δ2, grid step of integer computation parameters [table units]."""
     path_weight: float = 1.0
-    """Weight of the squared normalised path parameter in the objective [-]."""
+    """Weight of the normalised path parameter c̃1 in the objective [-]."""
     computation_weight: float = 1.0
-    """Weight of the squared normalised computation parameters [-]."""
+    """Weight of the normalised computation parameters c̃2 in the objective [-]."""
     slack_weight: float = 1e4
-    """Exact (L1) penalty on the output-constraint slack: cost slack_weight·Σ s_k [1/W]."""
+    """Exact (L1) penalty on the output-constraint slack: cost slack_weight·Σ s_k [1/W] (paper
+    policy)."""
     power_model: str = "quadratic"
-    """Smooth g(c) inside the NLP: "quadratic" (least-squares fit to the table) or "linear"
+    """Smooth g(c) inside the NLPs: "quadratic" (least-squares fit to the table) or "linear"
     (Eq. 11 scaling factors). Grid mapping and predictions always use the exact table."""
-    max_wall_time: float = 0.25
-    """IPOPT wall-time limit per solve [s]."""
+    margin_floor: float = 0.02
+    """Smallest SoC margin above ``battery.reserve_soc`` the mpc policy plans to end with [-]."""
+    margin_sigmas: float = 3.0
+    """The mpc margin also grows by this many standard deviations of the predicted end SoC,
+    from the estimator's variance of the mean power α0 [-]."""
+    fault_reserve: float = 0.0
+    """SoC the mpc policy holds back for battery faults it cannot foresee, on top of the margin
+    [-], in [0, 1)."""
     max_iterations: int = 100
-    """IPOPT iteration limit per solve [-]."""
+    """IPOPT iteration limit per solve [-]: the only bound of a solve in simulation."""
+    max_wall_time: float = 0.0
+    """Opt-in real-time budget: IPOPT wall-time limit per solve [s]; 0 (every shipped scenario)
+    disables it, so that a flight depends on its scenario only, never on the machine's speed."""
+    hindsight_path_parameters: int = 5
+    """Number of equally spaced c1 values of the hindsight grid (× every table value of c2)."""
 
     def Validate(self, key: str = "planner") -> None:
+        _check(
+            self.policy in POLICIES,
+            f"{key}.policy",
+            f"must be one of {', '.join(POLICIES)}, got {self.policy!r}",
+        )
         _positive(self.period, f"{key}.period")
         _check(
             isinstance(self.horizon, int) and 1 <= self.horizon <= 1000,
@@ -386,23 +425,54 @@ class PlannerParams:
         lo, hi = self.path_parameter_bounds
         for i, c in enumerate(self.initial_path_parameters):
             _in_range(c, f"{key}.initial_path_parameters[{i}]", lo, hi)
+        _check(
+            isinstance(self.path_parameter_grid_size, int)
+            and 2 <= self.path_parameter_grid_size <= 201,
+            f"{key}.path_parameter_grid_size",
+            f"must be an integer in [2, 201], got {self.path_parameter_grid_size!r}",
+        )
         _positive(self.path_parameter_step, f"{key}.path_parameter_step")
         _nonnegative(self.path_parameter_deadband, f"{key}.path_parameter_deadband")
         _positive(self.computation_parameter_step, f"{key}.computation_parameter_step")
         _nonnegative(self.path_weight, f"{key}.path_weight")
         _nonnegative(self.computation_weight, f"{key}.computation_weight")
+        _check(
+            self.path_weight + self.computation_weight > 0.0,
+            f"{key}.path_weight",
+            "path_weight + computation_weight must be > 0",
+        )
         _positive(self.slack_weight, f"{key}.slack_weight")
         _check(
             self.power_model in ("quadratic", "linear"),
             f"{key}.power_model",
             f'must be "quadratic" or "linear", got {self.power_model!r}',
         )
-        _positive(self.max_wall_time, f"{key}.max_wall_time")
+        _in_range(self.margin_floor, f"{key}.margin_floor", 0.0, 1.0 - 1e-9)
+        _in_range(self.margin_sigmas, f"{key}.margin_sigmas", 0.0, 100.0)
+        _in_range(self.fault_reserve, f"{key}.fault_reserve", 0.0, 1.0 - 1e-9)
         _check(
-            isinstance(self.max_iterations, int) and self.max_iterations >= 1,
+            isinstance(self.max_iterations, int) and 1 <= self.max_iterations <= 10_000,
             f"{key}.max_iterations",
-            f"must be an integer >= 1, got {self.max_iterations!r}",
+            f"must be an integer in [1, 10000], got {self.max_iterations!r}",
         )
+        _nonnegative(self.max_wall_time, f"{key}.max_wall_time")
+        _check(
+            isinstance(self.hindsight_path_parameters, int)
+            and 2 <= self.hindsight_path_parameters <= 101,
+            f"{key}.hindsight_path_parameters",
+            f"must be an integer in [2, 101], got {self.hindsight_path_parameters!r}",
+        )
+
+    @property
+    def is_static(self) -> bool:
+        """The planner holds its initial parameters (``static`` and ``hindsight``, whose flights
+        are static)."""
+        return self.policy in ("static", "hindsight")
+
+    def PathParameterGrid(self):
+        """The M equally spaced c1 values over the bounds [m²] (numpy array)."""
+        lo, hi = (float(v) for v in self.path_parameter_bounds)
+        return np.linspace(lo, hi, int(self.path_parameter_grid_size))
 
 
 @dc.dataclass

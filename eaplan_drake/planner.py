@@ -71,7 +71,7 @@ from pydrake.systems.framework import LeafSystem
 
 from eaplan_drake.battery import IsBrownout, PowerBudget, SocDerivative
 from eaplan_drake.computation import ComputationTable
-from eaplan_drake.energy_model import DiscreteFourierMatrices, FourierOutputMatrix, StateSize
+from eaplan_drake.energy_model import FreeResponseMatrix, StateSize
 from eaplan_drake.params import BatteryParams, PlannerParams
 
 __all__ = [
@@ -94,24 +94,10 @@ _FEASIBILITY_TOL = 1e-9  # [W]
 
 
 def FreeResponse(q_hat, order: int, period: float, step: float, num_points: int) -> np.ndarray:
-    """f(k·step) = C expm(A k·step) q̂ for k = 0 … num_points − 1 [W] (exact rotation blocks).
-
-    Powers of A_d = :func:`~eaplan_drake.energy_model.DiscreteFourierMatrices` (order, T, step)
-    are stacked by doubling, so the cost is O(log num_points) small matrix products.
-    """
-    rows = _ResponseRows(order, period, step, num_points)
+    """f(k·step) = C expm(A k·step) q̂ for k = 0 … num_points − 1 [W] (exact rotation blocks,
+    :func:`~eaplan_drake.energy_model.FreeResponseMatrix`)."""
+    rows = FreeResponseMatrix(order, period, step, num_points)
     return rows @ np.asarray(q_hat, dtype=float).reshape(-1)
-
-
-def _ResponseRows(order: int, period: float, step: float, num_points: int) -> np.ndarray:
-    """[C; C A_d; C A_d²; …] with num_points rows (A_d for the step)."""
-    Ad, _ = DiscreteFourierMatrices(order, period, step)
-    rows = FourierOutputMatrix(order)
-    power = Ad
-    while rows.shape[0] < num_points:
-        rows = np.vstack((rows, rows @ power))
-        power = power @ power
-    return rows[:num_points]
 
 
 def SimpsonSoc(y_half, soc0: float, battery: BatteryParams, step: float) -> np.ndarray:
@@ -197,7 +183,7 @@ def ChoosePathParameter(
     return min(max(target, previous - max_step), previous + max_step)
 
 
-class _PowerSurrogate:
+class PowerSurrogate:
     """Smooth model ĝ(c̃) of the table on normalised parameters c̃ ∈ [0, 1]^σ (value, gradient)."""
 
     def __init__(self, table: ComputationTable, kind: str):
@@ -255,7 +241,7 @@ class PlannerProgram:
         N, sigma = planner.horizon, table.num_parameters
         self.horizon, self.num_computation = N, sigma
         self.step = float(planner.period)
-        self.surrogate = _PowerSurrogate(table, planner.power_model)
+        self.surrogate = PowerSurrogate(table, planner.power_model)
         self._battery = battery
         self._budget_per_soc = float(PowerBudget(1.0, battery))
         self._drain_coef = self.step * battery.k_b / battery.capacity  # [1/A]
@@ -299,7 +285,8 @@ class PlannerProgram:
         self.solver = IpoptSolver()
         self.options = SolverOptions()
         sid = self.solver.id()
-        self.options.SetOption(sid, "max_wall_time", float(planner.max_wall_time))
+        if planner.max_wall_time > 0.0:  # opt-in real-time budget: results then depend on the CPU
+            self.options.SetOption(sid, "max_wall_time", float(planner.max_wall_time))
         self.options.SetOption(sid, "max_iter", int(planner.max_iterations))
         self.options.SetOption(sid, "tol", 1e-6)
         self.options.SetOption(sid, "print_level", 0)
@@ -483,7 +470,7 @@ class Planner:
 
     def _Rows(self, period: float) -> np.ndarray:
         if self._rows_period != period:
-            self._rows = _ResponseRows(self.order, period, 0.5 * self.step, self._num_half)
+            self._rows = FreeResponseMatrix(self.order, period, 0.5 * self.step, self._num_half)
             self._rows_period = period
         return self._rows
 
@@ -563,16 +550,19 @@ class Planner:
             t_b = min(t_b, (k + 0.5 * int(np.argmax(brown[:, k]))) * self.step)
         return float(t_b)
 
-    def Fallback(self, path_parameter: float, status: str, warm=None) -> PlannerSolution:
-        """The safe configuration: lowest c2, c1 towards its lowest value (rate-limited)."""
+    def Fallback(
+        self, path_parameter: float, status: str, warm=None, computation=None
+    ) -> PlannerSolution:
+        """After a failed solve: c1 kept (the lowest if not finite), c2 = ``computation`` (the
+        largest the exact check admits, from :meth:`Plan`) or the lowest."""
         N = self.horizon
         lo1 = self.coverage_time.bounds[0]
-        step = float(self.params.path_parameter_step)
-        c1 = lo1 if not math.isfinite(path_parameter) else max(lo1, path_parameter - step)
+        c1 = path_parameter if math.isfinite(path_parameter) else lo1
+        c2 = self.lower.copy() if computation is None else np.asarray(computation, float)
         return PlannerSolution(
-            computation_parameters=self.lower.copy(),
+            computation_parameters=c2.copy(),
             path_parameter=float(c1),
-            computation_trajectory=np.tile(self.lower, (N, 1)),
+            computation_trajectory=np.tile(c2, (N, 1)),
             relaxed_computation=None,
             slack=None,
             soc_prediction=np.full(N + 1, np.nan),
@@ -619,8 +609,9 @@ class Planner:
         if ok:
             x = result.get_x_val()
             ok = bool(np.all(np.isfinite(x)))
-        if not ok:
-            out = self.Fallback(path_parameter, f"solver failed: {status}")
+        if not ok:  # deterministic fallback: the largest c2 the exact check admits now
+            c2, _, _ = self._MapStep(f_half[0:3], self.upper, self.table.power(c_prev), soc)
+            out = self.Fallback(path_parameter, f"solver failed: {status}", computation=c2)
             out.solve_time = solve_time
             return out
         nc = N * sigma
@@ -673,51 +664,127 @@ class Planner:
         )
 
 
+# -- the policy seam ----------------------------------------------------------------------------
+
+
+@dc.dataclass
+class PlannerObservation:
+    """What a policy sees at a planner step (the :class:`PlannerScheduler` inputs and state)."""
+
+    time: float
+    """t [s]."""
+    energy_coefficients: np.ndarray
+    """q̂ [W] (2r + 1,)."""
+    mean_power_variance: float
+    """Var(α̂0) = P_00 of the estimator [W²]."""
+    soc: float
+    """b [-]."""
+    period: float
+    """T [s]."""
+    coverage_remaining: float
+    """Fraction of the survey still to fly [-]."""
+    remaining_time: np.ndarray
+    """Exact remaining time t_rem(c1_j) at the sequencer's c1 grid [s] (M,)."""
+    path_parameter: float
+    """c1 applied now [m²]."""
+    computation_parameters: np.ndarray
+    """c2 applied now (σ,) [table units]."""
+
+
+@dc.dataclass
+class PlannerDecision:
+    """What a policy answers: the parameters to apply and its memory for the next step."""
+
+    path_parameter: float
+    """c1 [m²]."""
+    computation_parameters: np.ndarray
+    """c2 (σ,) [table units]."""
+    memory: np.ndarray
+    """The policy's memory for the next step (e.g. a warm start), kept in the context."""
+    success: bool = True
+    """False when the policy's solver failed and a deterministic fallback answered."""
+    feasible: bool = True
+    """False when the policy's constraint (mpc: completing the survey above the reserve plus the
+    margin even at the lowest quality; paper: y ≤ b·Q_c·V) cannot be met."""
+    status: str = ""
+    solve_time: float = 0.0
+    """Wall time of the solver [s] (statistics only; never changes a decision)."""
+
+
+class PlannerPolicy:
+    """A planner-scheduler policy: subclass and implement :meth:`Plan` (and
+    :meth:`InitialMemory` if the policy remembers anything between steps, e.g. a warm start).
+
+    A policy must be a function of its arguments: any memory goes through ``memory`` (it lives in
+    the Drake context), so a simulation depends on its scenario only.
+    """
+
+    name = "policy"
+    acts = True
+    """False for a policy that never changes the parameters (no update event is declared)."""
+
+    def InitialMemory(self) -> np.ndarray:
+        """The memory at t = 0 (a vector; may be empty)."""
+        return np.zeros(0)
+
+    def Plan(self, observation: PlannerObservation, memory: np.ndarray) -> PlannerDecision:
+        raise NotImplementedError
+
+
 # -- Drake system -------------------------------------------------------------------------------
 
 
 class PlannerScheduler(LeafSystem):
-    """Planner-scheduler of paper 003 Alg. 2 as a periodic discrete system.
+    """The planner-scheduler of paper 003 Alg. 2 as a periodic discrete system around a policy.
 
-    Every h_T = ``planner.period`` [s], from t = ``planner.warmup`` on, solves the output-MPC NLP
-    (Eq. 16, :class:`Planner`) from the inputs q̂ [W], b [-], T [s] and the coverage fraction left,
-    maps c2 onto the table grid (exact y ≤ b·Q_c·V), and sets c1 by the path rule
-    t_r(c1) = f_cov·(ν c1 + τ) ≤ t_b (Eq. 10, rate-limited by δ1 = ``path_parameter_step``).
-    Before the warm-up, and always when ``planner.enabled`` is False, the outputs hold the initial
-    parameters. A failed, timed-out or invalid solve applies the lowest c2 and moves c1 towards
-    its lowest value (rate-limited); it is counted, never raised.
+    Every h_T = ``period`` [s], from t = ``warmup`` on, it hands the inputs (q̂ [W], Var(α̂0) [W²],
+    b [-], T [s], the coverage fraction left and the exact remaining time at each c1 of the grid
+    [s]) and the parameters applied now to ``policy`` (:class:`PlannerPolicy`; see
+    :mod:`eaplan_drake.policies`: mpc, paper, greedy, greedy_authors, static) and applies its
+    answer. Before the warm-up, and always for a policy that does not act, the outputs hold the
+    initial parameters. ``mission_feasible`` is 1 while the policy's constraint can be met and 0
+    after a step where it cannot (mpc: not even the lowest-quality plan completes the survey above
+    the reserve plus the margin; it then flies the lowest plan).
 
-    Discrete state: [c1] (group 0), [c2] (group 1), the NLP warm start (group 2); the outputs are
-    the state (no direct feedthrough, so no algebraic loop). The solve statistics
-    (:meth:`statistics`) are Python-side attributes of the System, *not* Drake state: they
-    accumulate over every context/simulation of this instance (:meth:`reset_statistics`).
+    Discrete state: [c1] (group 0), [c2] (group 1), [mission_feasible] (group 2), the policy's
+    memory (group 3); the outputs are the state (no direct feedthrough, so no algebraic loop).
+    The solve statistics (:meth:`statistics`) are Python-side attributes of the System, *not*
+    Drake state: they accumulate over every context/simulation of this instance
+    (:meth:`reset_statistics`) and never change a decision.
 
     .. pydrake_system::
 
         name: PlannerScheduler
         input_ports:
         - energy_coefficients
+        - mean_power_variance
         - soc
         - period
         - coverage_remaining
+        - remaining_time
         output_ports:
         - path_parameters
         - computation_parameters
+        - mission_feasible
     """
 
     def __init__(
         self,
-        planner: PlannerParams,
+        policy: PlannerPolicy,
+        *,
         table: ComputationTable,
         order: int,
-        battery: BatteryParams,
-        coverage_time_bounds,
+        period: float,
+        warmup: float,
+        initial_path_parameter: float,
         initial_computation_parameters,
-        integer: bool = True,
+        path_parameter_grid_size: int,
     ):
         super().__init__()
-        self._planner = Planner(planner, table, order, battery, coverage_time_bounds, integer)
-        self._params = planner
+        if not isinstance(policy, PlannerPolicy):
+            raise ValueError(f"policy: must be a PlannerPolicy, got {type(policy).__name__}")
+        self._policy = policy
+        self._table = table
         c2_0 = np.asarray(initial_computation_parameters, dtype=float).reshape(-1)
         if c2_0.size != table.num_parameters or not np.all(np.isfinite(c2_0)):
             raise ValueError(
@@ -729,39 +796,47 @@ class PlannerScheduler(LeafSystem):
                 f"initial_computation_parameters: must lie in [{table.lower}, {table.upper}], "
                 f"got {c2_0}"
             )
-        if len(planner.initial_path_parameters) != 1:
+        c1_0 = float(initial_path_parameter)
+        for name, value in (("period", period), ("warmup", warmup), ("initial_path", c1_0)):
+            if not math.isfinite(value):
+                raise ValueError(f"PlannerScheduler.{name}: must be finite, got {value!r}")
+        if not period > 0.0 or warmup < 0.0:
             raise ValueError(
-                "planner.initial_path_parameters: exactly one path parameter (ρ = 1) is "
-                f"supported, got {len(planner.initial_path_parameters)}"
+                f"PlannerScheduler: need period > 0 and warmup >= 0 [s], got {period!r}, {warmup!r}"
             )
         m = StateSize(order)
         self._energy_port = self.DeclareVectorInputPort("energy_coefficients", m)
+        self._variance_port = self.DeclareVectorInputPort("mean_power_variance", 1)
         self._soc_port = self.DeclareVectorInputPort("soc", 1)
         self._period_port = self.DeclareVectorInputPort("period", 1)
         self._coverage_port = self.DeclareVectorInputPort("coverage_remaining", 1)
-        self._c1_index = self.DeclareDiscreteState(
-            np.array([float(planner.initial_path_parameters[0])])
+        self._remaining_port = self.DeclareVectorInputPort(
+            "remaining_time", int(path_parameter_grid_size)
         )
+        self._c1_index = self.DeclareDiscreteState(np.array([c1_0]))
         self._c2_index = self.DeclareDiscreteState(c2_0)
-        self._warm_index = self.DeclareDiscreteState(self._planner.LowestWarmStart())
+        self._feasible_index = self.DeclareDiscreteState(np.ones(1))
+        memory = np.asarray(policy.InitialMemory(), dtype=float).reshape(-1)
+        self._memory_size = memory.size
+        # Drake needs a non-empty group: an empty memory is stored as one unused zero.
+        self._memory_index = self.DeclareDiscreteState(memory if memory.size else np.zeros(1))
         self._path_port = self.DeclareStateOutputPort("path_parameters", self._c1_index)
         self._computation_port = self.DeclareStateOutputPort(
             "computation_parameters", self._c2_index
         )
-        if planner.enabled:
-            self.DeclarePeriodicDiscreteUpdateEvent(
-                float(planner.period), float(planner.warmup), self._Update
-            )
+        self._feasible_port = self.DeclareStateOutputPort("mission_feasible", self._feasible_index)
+        if policy.acts:
+            self.DeclarePeriodicDiscreteUpdateEvent(float(period), float(warmup), self._Update)
         self.reset_statistics()
 
     @property
     def table(self) -> ComputationTable:
-        return self._planner.table
+        return self._table
 
     @property
-    def planner(self) -> Planner:
-        """The pure planner step used by the update (for inspection and benchmarks)."""
-        return self._planner
+    def policy(self) -> PlannerPolicy:
+        """The policy that decides (for inspection and benchmarks)."""
+        return self._policy
 
     def reset_statistics(self) -> None:
         """Clears the solve statistics."""
@@ -774,16 +849,17 @@ class PlannerScheduler(LeafSystem):
     def statistics(self) -> dict:
         """Solve statistics since construction / :meth:`reset_statistics` (Python-side).
 
-        Keys: solves (planner steps), failures (failed, timed-out or invalid solves: fallback),
-        infeasible (steps whose applied c2 violates y ≤ b·Q_c·V even at the lowest grid point),
-        solve_times and step_times [s] (IPOPT only / the whole step), median_solve_time,
-        p95_solve_time, median_step_time, p95_step_time [s] (None before the first solve).
+        Keys: solves (planner steps), failures (failed solves answered by the deterministic
+        fallback), infeasible (steps whose policy constraint could not be met), solve_times and
+        step_times [s] (solver only / the whole step), median_solve_time, p95_solve_time,
+        median_step_time, p95_step_time [s] (None before the first solve).
         """
 
         def pct(v, p):
             return float(np.percentile(v, p)) if v else None
 
         return {
+            "policy": self._policy.name,
             "solves": self._solves,
             "failures": self._failures,
             "infeasible": self._infeasible,
@@ -795,27 +871,41 @@ class PlannerScheduler(LeafSystem):
             "p95_step_time": pct(self._step_times, 95),
         }
 
+    def Observe(self, context) -> PlannerObservation:
+        """The observation a policy gets in ``context`` (inputs and applied parameters)."""
+        return PlannerObservation(
+            time=float(context.get_time()),
+            energy_coefficients=np.array(self._energy_port.Eval(context)),
+            mean_power_variance=float(self._variance_port.Eval(context)[0]),
+            soc=float(self._soc_port.Eval(context)[0]),
+            period=float(self._period_port.Eval(context)[0]),
+            coverage_remaining=float(self._coverage_port.Eval(context)[0]),
+            remaining_time=np.array(self._remaining_port.Eval(context)),
+            path_parameter=float(context.get_discrete_state(self._c1_index).GetAtIndex(0)),
+            computation_parameters=context.get_discrete_state(self._c2_index).get_value().copy(),
+        )
+
     def _Update(self, context, discrete_state) -> None:
         t0 = time.perf_counter()
-        c1 = context.get_discrete_state(self._c1_index).GetAtIndex(0)
-        c2 = context.get_discrete_state(self._c2_index).get_value()
-        warm = context.get_discrete_state(self._warm_index).get_value()
-        sol = self._planner.Plan(
-            self._energy_port.Eval(context),
-            self._soc_port.Eval(context)[0],
-            self._period_port.Eval(context)[0],
-            self._coverage_port.Eval(context)[0],
-            c2,
-            c1,
-            warm,
-        )
+        memory = context.get_discrete_state(self._memory_index).get_value()
+        decision = self._policy.Plan(self.Observe(context), memory[: self._memory_size].copy())
         self._solves += 1
-        if not sol.success:
+        if not decision.success:
             self._failures += 1
-        elif not sol.feasible:
+        if not decision.feasible:
             self._infeasible += 1
-        discrete_state.get_mutable_vector(self._c1_index).SetAtIndex(0, sol.path_parameter)
-        discrete_state.get_mutable_vector(self._c2_index).SetFromVector(sol.computation_parameters)
-        discrete_state.get_mutable_vector(self._warm_index).SetFromVector(sol.warm_start)
-        self._solve_times.append(sol.solve_time)
+        discrete_state.get_mutable_vector(self._c1_index).SetAtIndex(
+            0, float(decision.path_parameter)
+        )
+        discrete_state.get_mutable_vector(self._c2_index).SetFromVector(
+            np.asarray(decision.computation_parameters, dtype=float)
+        )
+        discrete_state.get_mutable_vector(self._feasible_index).SetAtIndex(
+            0, 1.0 if decision.feasible else 0.0
+        )
+        if self._memory_size:
+            discrete_state.get_mutable_vector(self._memory_index).SetFromVector(
+                np.asarray(decision.memory, dtype=float).reshape(-1)
+            )
+        self._solve_times.append(float(decision.solve_time))
         self._step_times.append(time.perf_counter() - t0)

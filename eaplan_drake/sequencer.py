@@ -15,6 +15,11 @@ stays active afterwards.
 The period T [s] is the time between two entries into the same primitive stage (a configured first
 guess until one has been measured). A change of ``path_parameters`` (c1, clipped into the plan's
 range; NaN ignored) re-plans the stages after the active one (the active line or circle is kept).
+``remaining_time`` [s] is the exact nominal time still to fly until the mission completes if the
+rest of the plan is flown with c1, for each c1 of a grid c1_1 < … < c1_M: the time left on the
+active stage (its share of the stage's time) plus the times of the stages that would follow,
+generated with that c1, at the airspeed in the (constant, known) wind. It is the plan's staircase
+t(c1) from here (whole repetitions), not the Eq. 10 line; the mpc planner decides on it.
 ``coverage_remaining`` is the fraction [0, 1] of the survey still to fly: the rest of the current
 stage plus the survey length of the remaining stages *as if flown at the reference c1 = c̄1* (the
 finest coverage), over the survey length of the whole plan at c̄1. It measures the area left, so it
@@ -38,6 +43,7 @@ from .coverage import (
     NUM_PRIMITIVES,
     PlanSource,
     Stage,
+    StageTime,
     StaticPlan,
 )
 from .paths import DESCRIPTOR_SIZE
@@ -63,7 +69,7 @@ def Triggered(stage: Stage, position, epsilon: float) -> bool:
 class _Layout:
     """Offsets into the discrete state vector."""
 
-    def __init__(self, num_primitives: int):
+    def __init__(self, num_primitives: int, num_grid: int):
         names = [
             ("index", 1),
             ("c1", 1),
@@ -83,10 +89,15 @@ class _Layout:
             ("anchor", ANCHOR_SIZE),
             ("rest", 1),
             ("total", 1),
+            ("stage_time", 1),
+            ("stage_left", 1),
+            ("rest_times", num_grid),
         ]
+        vectors = {"entries", "descriptor", "trigger", "tangent", "center", "anchor", "rest_times"}
         offset = 0
         for name, size in names:
-            setattr(self, name, offset if size == 1 else slice(offset, offset + size))
+            vector = name in vectors or size != 1
+            setattr(self, name, slice(offset, offset + size) if vector else offset)
             offset += size
         self.size = offset
 
@@ -103,6 +114,10 @@ class StageSequencer(LeafSystem):
         update_period: period of the discrete update [s], > 0.
         trigger_radius: ε [m], ≥ 0 (``CoverageParams.trigger_radius``).
         initial_period: first guess of the period T [s], > 0.
+        airspeed: v_a [m/s] of the ``remaining_time`` output (default ``plan.airspeed``).
+        wind: constant wind w [m/s] of the ``remaining_time`` output.
+        path_parameter_grid: the c1 values [m²] of the ``remaining_time`` output (default: the
+            plan's current c1 only).
 
     .. pydrake_system::
 
@@ -115,6 +130,7 @@ class StageSequencer(LeafSystem):
         - stage
         - period
         - coverage_remaining
+        - remaining_time
         - mission_complete
     """
 
@@ -126,6 +142,9 @@ class StageSequencer(LeafSystem):
         update_period: float = 0.05,
         trigger_radius: float = 2.0,
         initial_period: float = 46.0,
+        airspeed: float | None = None,
+        wind=(0.0, 0.0),
+        path_parameter_grid=None,
     ):
         super().__init__()
         if not isinstance(plan, PlanSource):
@@ -149,7 +168,24 @@ class StageSequencer(LeafSystem):
         self._epsilon2 = float(trigger_radius) ** 2
         self._initial_period = float(initial_period)
         self._num_primitives = int(getattr(plan, "num_primitives", NUM_PRIMITIVES))
-        L = self._layout = _Layout(self._num_primitives)
+        self._airspeed = float(plan.airspeed if airspeed is None else airspeed)
+        self._wind = np.asarray(wind, dtype=float).reshape(2)
+        if not (
+            math.isfinite(self._airspeed)
+            and np.all(np.isfinite(self._wind))
+            and math.hypot(*self._wind) < self._airspeed
+        ):
+            raise ValueError(
+                "StageSequencer: need a finite airspeed above the wind speed, got "
+                f"airspeed={airspeed!r}, wind={wind!r}"
+            )
+        grid = [c1] if path_parameter_grid is None else path_parameter_grid
+        self._grid = np.asarray(grid, dtype=float).reshape(-1)
+        if self._grid.size < 1 or not np.all(np.isfinite(self._grid)):
+            raise ValueError(
+                f"StageSequencer.path_parameter_grid: need finite values, got {grid!r}"
+            )
+        L = self._layout = _Layout(self._num_primitives, self._grid.size)
 
         stages = plan.Stages(c1)
         x0 = np.zeros(L.size)
@@ -194,6 +230,9 @@ class StageSequencer(LeafSystem):
         self._coverage_remaining_port = self.DeclareVectorOutputPort(
             "coverage_remaining", 1, _Scalar(L.remaining), prerequisites_of_calc=xd
         )
+        self._remaining_time_port = self.DeclareVectorOutputPort(
+            "remaining_time", self._grid.size, self._CalcRemainingTime, prerequisites_of_calc=xd
+        )
         self._mission_complete_port = self.DeclareVectorOutputPort(
             "mission_complete", 1, _Scalar(L.complete), prerequisites_of_calc=xd
         )
@@ -221,6 +260,14 @@ class StageSequencer(LeafSystem):
 
     def get_coverage_remaining_output_port(self):
         return self._coverage_remaining_port
+
+    def get_remaining_time_output_port(self):
+        return self._remaining_time_port
+
+    @property
+    def path_parameter_grid(self) -> np.ndarray:
+        """The c1 values [m²] of the ``remaining_time`` output."""
+        return self._grid.copy()
 
     def get_mission_complete_output_port(self):
         return self._mission_complete_port
@@ -262,6 +309,37 @@ class StageSequencer(LeafSystem):
         x[L.anchor] = stage.anchor
         x[L.rest] = self._RestLength(stage)
         x[L.total] = total
+        x[L.stage_time] = StageTime(stage, self._airspeed, self._wind)
+        x[L.stage_left] = 1.0
+        x[L.rest_times] = [
+            self._plan.TimeAfter(stage.index, stage.anchor, c1, self._airspeed, self._wind)
+            for c1 in self._grid
+        ]
+
+    def _CalcRemainingTime(self, context, output) -> None:
+        L = self._layout
+        x = context.get_discrete_state(self._state_index).get_value()
+        if x[L.complete] > 0.5:
+            output.SetFromVector(np.zeros(self._grid.size))
+        else:
+            output.SetFromVector(x[L.rest_times] + x[L.stage_left] * x[L.stage_time])
+
+    def _StageLeft(self, x, p) -> float:
+        """Path length [m] left on the active stage from position p (all of it if None)."""
+        L = self._layout
+        length = x[L.length]
+        if p is None:
+            return length
+        if x[L.is_circle] > 0.5:
+            ox, oy = x[L.center]
+            tx, ty = x[L.trigger]
+            a_p = math.atan2(p[1] - oy, p[0] - ox)
+            a_t = math.atan2(ty - oy, tx - ox)
+            d = (a_t - a_p) if x[L.ccw] > 0.5 else (a_p - a_t)
+            return min(length, x[L.radius] * (d % (2.0 * math.pi)))
+        tx, ty = x[L.trigger]
+        ux, uy = x[L.tangent]
+        return min(length, max(0.0, (tx - p[0]) * ux + (ty - p[1]) * uy))
 
     def _Fraction(self, x, p) -> float:
         """Survey fraction still to fly from position p (entry of the stage if None)."""
@@ -271,22 +349,7 @@ class StageSequencer(LeafSystem):
         total = x[L.total]
         if total <= 0.0:
             return 0.0
-        here = 0.0
-        if x[L.primitive] != APPROACH:
-            length = x[L.length]
-            if p is None:
-                here = length
-            elif x[L.is_circle] > 0.5:
-                ox, oy = x[L.center]
-                tx, ty = x[L.trigger]
-                a_p = math.atan2(p[1] - oy, p[0] - ox)
-                a_t = math.atan2(ty - oy, tx - ox)
-                d = (a_t - a_p) if x[L.ccw] > 0.5 else (a_p - a_t)
-                here = min(length, x[L.radius] * (d % (2.0 * math.pi)))
-            else:
-                tx, ty = x[L.trigger]
-                ux, uy = x[L.tangent]
-                here = min(length, max(0.0, (tx - p[0]) * ux + (ty - p[1]) * uy))
+        here = 0.0 if x[L.primitive] == APPROACH else self._StageLeft(x, p)
         return min(1.0, max(0.0, (x[L.rest] + here) / total))
 
     def _Triggered(self, x, px: float, py: float) -> bool:
@@ -338,4 +401,6 @@ class StageSequencer(LeafSystem):
                         x[L.period] = t - last
                     x[L.entries.start + k] = t
             x[L.remaining] = self._Fraction(x, (px, py))
+            length = x[L.length]
+            x[L.stage_left] = self._StageLeft(x, (px, py)) / length if length > 0.0 else 0.0
         discrete_state.get_mutable_vector(self._state_index).SetFromVector(x)

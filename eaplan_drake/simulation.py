@@ -12,7 +12,9 @@ or ends with b ≤ b_reserve fails (P is then ``None``). Logs save as ``log.npz`
 each written to a temporary file and renamed, so an interrupted save never leaves a half file.
 """
 
+import copy
 import dataclasses as dc
+import itertools
 import json
 import os
 import tempfile
@@ -27,9 +29,12 @@ from pydrake.systems.framework import EventStatus
 
 from eaplan_drake.diagram import LOGGED_SIGNALS, MakeEaplanDiagram
 from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
+from eaplan_drake.planner import PlannerPolicy
 
 __all__ = [
     "FlightLog",
+    "FlyHindsight",
+    "HindsightGrid",
     "LoadFlightLog",
     "LoadNamedScenario",
     "NormaliseParameters",
@@ -156,14 +161,21 @@ def Simulate(
     scenario: Scenario,
     progress: Callable[[float, float], None] | None = None,
     progress_interval: float = 60.0,
+    *,
+    policy: PlannerPolicy | None = None,
 ) -> FlightLog:
     """Simulates ``scenario`` until the survey completes, the reserve is reached, the battery
     browns out or ``scenario.simulation.time_limit``; returns the :class:`FlightLog`.
 
     ``progress(t, soc)`` is called about every ``progress_interval`` simulated seconds.
+    ``policy`` replaces the planner policy the scenario names (see
+    :func:`~eaplan_drake.diagram.MakeEaplanDiagram`). With ``planner.policy: hindsight`` the
+    result is the best flight of :func:`FlyHindsight` (several static flights).
     """
+    if policy is None and scenario.Validate().planner.policy == "hindsight":
+        return FlyHindsight(scenario, progress, progress_interval)
     wall_start = time.perf_counter()
-    diagram = MakeEaplanDiagram(scenario)
+    diagram = MakeEaplanDiagram(scenario, policy=policy)
     simulator = Simulator(diagram)
     ResetIntegratorFromFlags(
         simulator, scenario.simulation.integrator, scenario.simulation.max_step
@@ -213,16 +225,22 @@ def Simulate(
         reserve,
         completed,
     )
+    feasible = log["mission_feasible"][:, 0]
+    infeasible_at = np.flatnonzero(feasible < 0.5)
     log.summary = {
         "scenario": scenario.name,
+        "policy": stats.get("policy", scenario.planner.policy),
         "status": state["status"],
         "completed": completed,
         "duration": final_time,
         "final_soc": final_soc,
         "reserve_soc": reserve,
+        "final_margin": final_soc - reserve,
+        "quality": 0.5 * mean_c1 + 0.5 * mean_c2,
         "mean_path_parameter_normalised": mean_c1,
         "mean_computation_parameter_normalised": mean_c2,
         "metric": metric,
+        "first_infeasible_time": float(log.times[infeasible_at[0]]) if infeasible_at.size else None,
         "planner": _JsonSafe(stats),
         "wall_time": wall_time,
         "realtime_factor": final_time / wall_time if wall_time > 0 else None,
@@ -252,3 +270,68 @@ def _JsonSafe(value):
     if isinstance(value, float) and not np.isfinite(value):
         return None
     return value
+
+
+def HindsightGrid(scenario: Scenario) -> list[tuple[float, np.ndarray]]:
+    """The constant pairs (c1 [m²], c2 [table units]) of the hindsight reference, best quality
+    first: ``planner.hindsight_path_parameters`` values of c1 equally spaced over its bounds ×
+    every grid point of the computation table (ties: the lower power first)."""
+    from eaplan_drake.computation import LoadComputationTable
+
+    table = LoadComputationTable(scenario.computation.table)
+    lo, hi = (float(v) for v in scenario.planner.path_parameter_bounds)
+    c1_values = np.linspace(lo, hi, scenario.planner.hindsight_path_parameters)
+    span = np.where(table.upper > table.lower, table.upper - table.lower, 1.0)
+    pairs = []
+    for c1 in c1_values:
+        for c2 in itertools.product(*table.parameter_grids):
+            c2 = np.array(c2, dtype=float)
+            q1 = float(NormaliseParameters(c1, lo, hi))
+            q2 = float(np.mean((c2 - table.lower) / span))
+            pairs.append((-(0.5 * q1 + 0.5 * q2), table.power(c2), float(c1), c2))
+    pairs.sort(key=lambda p: (p[0], p[1], -p[2]))
+    return [(c1, c2) for _, _, c1, c2 in pairs]
+
+
+def FlyHindsight(
+    scenario: Scenario,
+    progress: Callable[[float, float], None] | None = None,
+    progress_interval: float = 60.0,
+) -> FlightLog:
+    """The best constant (c1, c2) in hindsight on the world of ``scenario`` (wind, faults, seeds).
+
+    The pairs of :func:`HindsightGrid` are flown as static plans in order of decreasing quality
+    ½c̃1 + ½c̃2; the first that completes above the reserve is the answer. A pair is not flown
+    when a pair with c1 and every c2 no higher already failed (more coverage time or more
+    power cannot complete where less did not). Returns that flight's log, with
+    ``summary["hindsight"]`` listing every pair flown; if none completes, the log of the last
+    pair flown (the lowest), which failed.
+    """
+    scenario.Validate()
+    failed: list[tuple[float, np.ndarray]] = []
+    flown = []
+    log = None
+    for c1, c2 in HindsightGrid(scenario):
+        if any(c1 >= f1 - 1e-9 and np.all(c2 >= f2 - 1e-9) for f1, f2 in failed):
+            continue
+        static = copy.deepcopy(scenario)
+        static.planner.policy = "static"
+        static.planner.initial_path_parameters = [c1]
+        static.computation.initial_parameters = [float(v) for v in c2]
+        log = Simulate(static, progress, progress_interval)
+        flown.append(
+            {
+                "path_parameter": c1,
+                "computation_parameters": c2.tolist(),
+                "status": log.summary["status"],
+                "quality": log.summary["quality"],
+                "final_soc": log.summary["final_soc"],
+            }
+        )
+        if log.summary["completed"]:
+            break
+        failed.append((c1, c2))
+    log.summary["scenario"] = scenario.name
+    log.summary["policy"] = "hindsight"
+    log.summary["hindsight"] = flown
+    return log

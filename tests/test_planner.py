@@ -23,6 +23,7 @@ from eaplan_drake.planner import (
     PlannerScheduler,
     SimpsonSoc,
 )
+from eaplan_drake.policies import MakePolicy
 
 ORDER = 3
 PERIOD = 46.0
@@ -238,15 +239,15 @@ def test_linear_power_model_gives_same_extremes(table):
     assert planner.Plan(Q_REF, 0.5, PERIOD, 0.5, [10.0], 0.0).computation_parameters[0] == 2.0
 
 
-def test_forced_failure_falls_back_to_lowest(table):
+def test_forced_failure_keeps_c1_and_takes_the_largest_admissible_c2(planner, table):
     params = PlannerParams(max_iterations=1)
-    planner = Planner(params, table, ORDER, BatteryParams(), COVERAGE_TIMES)
-    sol = planner.Plan(Q_REF, 0.68, PERIOD, 0.5, [10.0], 0.0)
+    failing = Planner(params, table, ORDER, BatteryParams(), COVERAGE_TIMES)
+    sol = failing.Plan(Q_REF, 0.68, PERIOD, 0.5, [10.0], -300.0)
     assert not sol.success
     assert "solver failed" in sol.status
-    assert sol.computation_parameters[0] == table.lower[0]
-    assert sol.path_parameter == -params.path_parameter_step  # towards c̲1, rate-limited
-    bad = planner.Plan(Q_REF, math.nan, PERIOD, 0.5, [10.0], 0.0)
+    assert sol.path_parameter == -300.0  # kept
+    assert sol.computation_parameters[0] == _BruteForceC2(table, Q_REF, 0.68, [10.0])
+    bad = failing.Plan(Q_REF, math.nan, PERIOD, 0.5, [10.0], 0.0)
     assert not bad.success and "invalid input" in bad.status
 
 
@@ -295,53 +296,105 @@ def test_time_to_reserve_matches_closed_form_for_constant_load(planner):
 
 # -- the system ---------------------------------------------------------------------------------
 
+GRID = np.linspace(-1000.0, 0.0, 21)
+
+
+def _Scheduler(params, table, c2_0, policy=None):
+    """A PlannerScheduler around ``params.policy`` (the paper's by default in these tests)."""
+    policy = policy or MakePolicy(
+        params,
+        table,
+        ORDER,
+        BatteryParams(),
+        coverage_time_bounds=COVERAGE_TIMES,
+        path_parameter_grid=GRID,
+    )
+    return PlannerScheduler(
+        policy,
+        table=table,
+        order=ORDER,
+        period=params.period,
+        warmup=params.warmup,
+        initial_path_parameter=params.initial_path_parameters[0],
+        initial_computation_parameters=c2_0,
+        path_parameter_grid_size=GRID.size,
+    )
+
 
 def _Diagram(system, soc=0.68, q=Q_REF, publish_period=0.1):
     builder = DiagramBuilder()
     builder.AddSystem(system)
     for name, value in (
         ("energy_coefficients", q),
+        ("mean_power_variance", [1e-4]),
         ("soc", [soc]),
         ("period", [PERIOD]),
         ("coverage_remaining", [0.5]),
+        ("remaining_time", np.linspace(135.0, 353.0, GRID.size)),
     ):
         source = builder.AddSystem(ConstantVectorSource(np.asarray(value, dtype=float)))
         builder.Connect(source.get_output_port(), system.GetInputPort(name))
     logs = [
         LogVectorOutput(system.GetOutputPort(name), builder, publish_period=publish_period)
-        for name in ("path_parameters", "computation_parameters")
+        for name in ("path_parameters", "computation_parameters", "mission_feasible")
     ]
     return builder.Build(), logs
 
 
 def test_system_ports(table, table2):
-    system = PlannerScheduler(
-        PlannerParams(), table2, ORDER, BatteryParams(), COVERAGE_TIMES, [2.0, 4.0]
-    )
-    sizes = {"energy_coefficients": 7, "soc": 1, "period": 1, "coverage_remaining": 1}
-    assert system.num_input_ports() == 4
+    system = _Scheduler(PlannerParams(policy="paper"), table2, [2.0, 4.0])
+    sizes = {
+        "energy_coefficients": 7,
+        "mean_power_variance": 1,
+        "soc": 1,
+        "period": 1,
+        "coverage_remaining": 1,
+        "remaining_time": GRID.size,
+    }
+    assert system.num_input_ports() == len(sizes)
     for name, size in sizes.items():
         assert system.GetInputPort(name).size() == size
     assert system.GetOutputPort("path_parameters").size() == 1
     assert system.GetOutputPort("computation_parameters").size() == 2
+    assert system.GetOutputPort("mission_feasible").size() == 1
     assert system.table is table2
+    assert system.policy.name == "paper"
     context = system.CreateDefaultContext()  # outputs need no input (no direct feedthrough)
     np.testing.assert_array_equal(
         system.GetOutputPort("computation_parameters").Eval(context), [2, 4]
     )
     assert system.GetOutputPort("path_parameters").Eval(context)[0] == 0.0
-    for port in ("path_parameters", "computation_parameters"):
-        for i in range(4):
+    assert system.GetOutputPort("mission_feasible").Eval(context)[0] == 1.0
+    for port in ("path_parameters", "computation_parameters", "mission_feasible"):
+        for i in range(len(sizes)):
             assert not system.HasDirectFeedthrough(i, system.GetOutputPort(port).get_index())
     with pytest.raises(ValueError, match="initial_computation_parameters"):
-        PlannerScheduler(PlannerParams(), table, ORDER, BatteryParams(), COVERAGE_TIMES, [12.0])
+        _Scheduler(PlannerParams(policy="paper"), table, [12.0])
     with pytest.raises(ValueError, match="coverage_time_bounds"):
-        PlannerScheduler(PlannerParams(), table, ORDER, BatteryParams(), (0.0, 10.0), [2.0])
+        MakePolicy(
+            PlannerParams(policy="paper"),
+            table,
+            ORDER,
+            BatteryParams(),
+            coverage_time_bounds=(0.0, 10.0),
+            path_parameter_grid=GRID,
+        )
+    with pytest.raises(ValueError, match="policy: must be a PlannerPolicy"):
+        PlannerScheduler(
+            object(),
+            table=table,
+            order=ORDER,
+            period=1.0,
+            warmup=0.0,
+            initial_path_parameter=0.0,
+            initial_computation_parameters=[2.0],
+            path_parameter_grid_size=GRID.size,
+        )
 
 
 def test_system_outputs_change_only_at_update_times(table):
-    params = PlannerParams(warmup=2.0, period=1.0)
-    system = PlannerScheduler(params, table, ORDER, BatteryParams(), COVERAGE_TIMES, [10.0])
+    params = PlannerParams(policy="paper", warmup=2.0, period=1.0)
+    system = _Scheduler(params, table, [10.0])
     diagram, logs = _Diagram(system)
     simulator = Simulator(diagram)
     simulator.AdvanceTo(6.5)
@@ -364,10 +417,10 @@ def test_system_outputs_change_only_at_update_times(table):
     assert set(c2) <= set(table.parameter_grids[0])
 
 
-def test_system_disabled_holds_initial_parameters(table):
-    params = PlannerParams(enabled=False, warmup=0.0)
+def test_system_static_holds_initial_parameters(table):
+    params = PlannerParams(policy="static", warmup=0.0)
     params.initial_path_parameters = [-1000.0]
-    system = PlannerScheduler(params, table, ORDER, BatteryParams(), COVERAGE_TIMES, [2.0])
+    system = _Scheduler(params, table, [2.0])
     diagram, logs = _Diagram(system, soc=1.0)
     simulator = Simulator(diagram)
     simulator.AdvanceTo(3.0)
@@ -378,8 +431,8 @@ def test_system_disabled_holds_initial_parameters(table):
 
 
 def test_system_forced_failure_is_counted_and_falls_back(table):
-    params = PlannerParams(warmup=0.0, max_iterations=1)
-    system = PlannerScheduler(params, table, ORDER, BatteryParams(), COVERAGE_TIMES, [10.0])
+    params = PlannerParams(policy="paper", warmup=0.0, max_iterations=1)
+    system = _Scheduler(params, table, [10.0])
     diagram, logs = _Diagram(system, soc=1.0)
     simulator = Simulator(diagram)
     simulator.AdvanceTo(2.5)
@@ -388,8 +441,9 @@ def test_system_forced_failure_is_counted_and_falls_back(table):
     context = simulator.get_context()
     c1 = logs[0].FindLog(context).data()[0]
     c2 = logs[1].FindLog(context).data()[0]
-    assert c2[-1] == 2.0 and c1[-1] == -1000.0  # c1 reaches c̲1 in two rate-limited steps
-    assert np.min(np.diff(c1)) >= -500.0
+    # Deterministic fallback: c1 kept, the largest c2 the exact check admits (all of it at b = 1).
+    np.testing.assert_array_equal(c1, 0.0)
+    np.testing.assert_array_equal(c2, 10.0)
     system.reset_statistics()
     assert system.statistics()["solves"] == 0
 

@@ -1,0 +1,546 @@
+"""Mission-feasible MPC: the default planner formulation (beyond paper 003).
+
+Every h_T [s] the planner chooses the path parameter c1 [m²] and the σ computation parameters
+c2 [table units] from the estimated energy state q̂ [W] (and the variance of its mean α0 [W²]),
+the SoC b0 [-], the period T [s] and the exact remaining survey time t_rem(c1_j) [s] at the M
+values c1_1 < … < c1_M of a grid (the sequencer's ``remaining_time``: the plan's staircase in the
+current wind, whole repetitions, not the Eq. 10 line).
+
+**Why not the paper's formulation.** Its output constraint y ≤ b·Q_c·V (Def. III.3) compares
+watts with watt-hours and is infeasible for every c2 once b < ≈ 0.64, so the slack, not the
+energy budget, decides c2; its c1 comes from the Eq. 10 line, off by up to 132 s against the
+plan; and it plans to a zero margin. This formulation decides c1 and c2 together on the plan the
+aircraft will actually fly.
+
+**The plan.** The decision is the pair (c1, c2) the *rest of the mission* is flown with (a
+shrinking-horizon MPC with one move block: the horizon is the rest of the survey, re-planned every
+h_T). Committing to the plan matters for c1: it only shapes the path when a turn is entered, so a
+rule that is judged one step ahead ("highest quality now") would report a high c1 between turns
+and cut it at each turn. With q̂ the prediction of the power is
+
+    y(t) = C expm(A t) q̂ + g(c2) − g(c_now) =: f(t) + Δg(c2),        t ≥ 0 from now,
+
+(:func:`~eaplan_drake.energy_model.FreeResponseMatrix`, exact rotation blocks), and the Rint
+battery ḃ = −k_b I(y)/Q_c gives the SoC b(t; c2) by Simpson's rule on the grid of h_T
+(:func:`~eaplan_drake.planner.SimpsonSoc`, exact up to O(h⁵) per step), linearly interpolated in
+between. The plan (c1_j, c2) is *feasible* when
+
+    b(t_rem(c1_j); c2) ≥ b_res + m(t_rem(c1_j))                                    (1)
+    b(h_T; c2) − b(h_T; c̲2) + b(t_rem(c̲1); c̲2) ≥ b_res + m(t_rem(c̲1))              (2)
+
+and no load on the way browns the battery out. (2) is the recursive-feasibility condition: from
+the predicted state after this step, falling back to the lowest-quality parameters (c̲1, c̲2)
+still completes the survey above the reserve b_res plus the margin. (Over one step the aircraft
+flies the same path whatever c1 is, so the fallback's remaining time after the step is
+t_rem(c̲1) − h_T.) If the predictions hold, the plan chosen now stays feasible at the next step,
+so the problem never becomes infeasible by the planner's own doing; when a fault or any surprise
+makes even the lowest plan infeasible, the planner says so (``mission_feasible`` = 0) and flies
+the lowest plan. While only the uncertainty term of the margin excludes the lowest plan (the
+estimate has not settled yet, e.g. in the first seconds) it flies the lowest plan without the
+flag.
+
+**Margin.** m(t) = m_floor + m_fault + z · s_b · t · σ_α0: a configurable floor, an optional
+reserve for faults nobody can foresee, and z standard deviations of the drain error that an error
+σ_α0 = sqrt(P_00) [W] of the estimated mean power causes over t seconds, with
+s_b = k_b/(Q_c sqrt(V² − 4 R_r y0)) [1/(W s)] the SoC rate per watt at the mean load y0 = α̂0.
+
+**Objective.** The paper's metric rewards the time-weighted mean of ½c̃1 + ½c̃2; the planner
+maximises the quality of the plan, J = (w1 c̃1 + w2 mean_i c̃2_i)/(w1 + w2) with c̃ the parameters
+normalised to [0, 1] by their bounds. Ties are broken by the larger end SoC.
+
+**The discrete problem and its NLP.** c1 ranges over the M grid values, c2 over the table's
+grid (integer parameters). Brute force (:meth:`MissionProblem.BruteForce`) enumerates it exactly.
+The NLP (:class:`MissionProgram`, ``MathematicalProgram`` + IPOPT, bounded by iterations only) is
+its continuous relaxation: variables c̃1 ∈ [0, 1] and c̃2 ∈ [0, 1]^σ, linear cost −J, and the
+constraints (1), (2) with t_rem(c̃1) replaced by the lower convex hull of the staircase (the
+tightest convex under-estimate: with it the relaxation's optimum sits at the ends of plateaus,
+where the discrete optimum lies; smoothed by a monotone C¹ cubic) and g
+the smooth surrogate of the table (quadratic least-squares fit, or the Eq. 11 line). The relaxed
+optimum is mapped back exactly: the c2 grid points that bracket it (and the lowest) each get the
+largest grid c1 feasible with the exact table and the exact staircase, and the best of those by
+J is the start of a local search that moves c2 one grid step at a time (each with its largest
+feasible c1) while the plan improves; the result is the decision. A failed solve keeps the previous
+c1 and takes the best c2 that the exact check admits at it.
+"""
+
+import dataclasses as dc
+import itertools
+import math
+
+import numpy as np
+from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
+from pydrake.solvers import IpoptSolver, MathematicalProgram, SolverOptions
+
+from eaplan_drake.battery import IsBrownout
+from eaplan_drake.computation import ComputationTable
+from eaplan_drake.energy_model import FreeResponseMatrix, StateSize
+from eaplan_drake.params import BatteryParams, PlannerParams
+from eaplan_drake.planner import PowerSurrogate, SimpsonSoc
+
+__all__ = [
+    "MissionDecision",
+    "MissionProblem",
+    "MissionProgram",
+]
+
+_MAX_GRID_POINTS = 100_000
+_CONSTRAINT_SCALE = 100.0
+"""The NLP's constraints are in percent of SoC: IPOPT then sees gradients of order one."""
+
+
+@dc.dataclass
+class MissionDecision:
+    """One answer of the mission problem (indices into the problem's grids)."""
+
+    path_index: int
+    """j: c1 = grid[j]."""
+    candidate_index: int
+    """k: c2 = candidates[k] (or the continuous ``computation_parameters``)."""
+    path_parameter: float
+    """c1 [m²]."""
+    computation_parameters: np.ndarray
+    """c2 (σ,) [table units]."""
+    quality: float
+    """J of the plan [-]."""
+    end_soc: float
+    """Predicted SoC at the end of the survey under the plan [-]."""
+    margin: float
+    """Margin m(t_rem) the plan keeps above the reserve [-]."""
+    feasible: bool
+    """The plan satisfies (1) and (2); False only when even the lowest plan does not."""
+
+
+class MissionProblem:
+    """The exact discrete problem of one planner step (see the module docstring).
+
+    Args:
+        planner: planner parameters (period h_T, weights, margin, grid of c1).
+        table: the computation power table g (exact; its grid = the admissible c2).
+        order: Fourier order r of the energy model (q̂ has 2r + 1 entries).
+        battery: Rint battery parameters (reserve_soc is b_res).
+        path_parameter_grid: the M values of c1 [m²] (ascending) of ``remaining_time``.
+        integer: c2 takes only grid values (else the NLP's continuous optimum is a candidate).
+    """
+
+    def __init__(
+        self,
+        planner: PlannerParams,
+        table: ComputationTable,
+        order: int,
+        battery: BatteryParams,
+        path_parameter_grid,
+        integer: bool = True,
+    ):
+        self.params = planner
+        self.table = table
+        self.battery = battery
+        self.order = int(order)
+        self.state_size = StateSize(order)
+        self.integer = bool(integer)
+        self.step = float(planner.period)
+        grid = np.asarray(path_parameter_grid, dtype=float).reshape(-1)
+        if grid.size < 1 or not np.all(np.isfinite(grid)) or np.any(np.diff(grid) <= 0.0):
+            raise ValueError(
+                f"path_parameter_grid: need ascending finite values [m²], got {grid!r}"
+            )
+        self.grid = grid
+        lo1, hi1 = (float(v) for v in planner.path_parameter_bounds)
+        self.path_bounds = (lo1, hi1)
+        self.u1 = np.clip((grid - lo1) / (hi1 - lo1), 0.0, 1.0) if hi1 > lo1 else np.ones_like(grid)
+        n_grid = math.prod(g.size for g in table.parameter_grids)
+        if n_grid > _MAX_GRID_POINTS:
+            raise ValueError(
+                f"table: {n_grid} grid combinations, at most {_MAX_GRID_POINTS} are supported"
+            )
+        self.lower, self.upper = table.lower, table.upper
+        self.span = np.where(self.upper > self.lower, self.upper - self.lower, 1.0)
+        self.candidates = np.array(list(itertools.product(*table.parameter_grids)), dtype=float)
+        self.candidate_power = np.array([table.power(c) for c in self.candidates])
+        self.candidate_u2 = np.mean((self.candidates - self.lower) / self.span, axis=1)
+        self.lowest_candidate = int(np.flatnonzero(np.all(self.candidates == self.lower, 1))[0])
+        w1, w2 = float(planner.path_weight), float(planner.computation_weight)
+        self._w1, self._w2 = w1 / (w1 + w2), w2 / (w1 + w2)
+        self.surrogate = PowerSurrogate(table, planner.power_model)
+        self._rows_key = None
+        self._rows = None
+        self._cache: dict = {}
+        V, R = float(battery.voltage), float(battery.internal_resistance)
+        self._V2, self._4R = V * V, 4.0 * R
+        self._soc_per_amp_second = battery.k_b / battery.capacity
+
+    # -- per-step data -------------------------------------------------------------------------
+
+    def SetState(
+        self,
+        energy_coefficients,
+        mean_power_variance: float,
+        soc: float,
+        period: float,
+        remaining_time,
+        computation_parameters,
+    ) -> None:
+        """The step's data: q̂ [W], Var(α̂0) [W²], b0 [-], T [s], t_rem at the grid [s], c_now."""
+        q = np.asarray(energy_coefficients, dtype=float).reshape(-1)
+        t_rem = np.asarray(remaining_time, dtype=float).reshape(-1)
+        if q.size != self.state_size:
+            raise ValueError(f"energy_coefficients: expected {self.state_size}, got {q.size}")
+        if t_rem.size != self.grid.size:
+            raise ValueError(f"remaining_time: expected {self.grid.size}, got {t_rem.size}")
+        self.q = q
+        self.soc0 = float(soc)
+        self.t_rem = np.maximum(t_rem, 0.0)
+        self.g_now = float(self.table.power(np.asarray(computation_parameters, dtype=float)))
+        h = self.step
+        n = max(2, math.ceil(float(np.max(self.t_rem)) / h) + 2)
+        key = (float(period), n)
+        if self._rows_key != key:  # a pure function of (T, n): cached
+            self._rows = FreeResponseMatrix(self.order, float(period), 0.5 * h, 2 * n + 1)
+            self._rows_key = key
+        self.f_half = self._rows @ q
+        self.n = n
+        self._hull = _LowerHull(self.u1, self.t_rem)
+        self._slopes = _PchipSlopes(self.u1[self._hull], self.t_rem[self._hull])
+        self._cache = {}
+        y0 = float(q[0])
+        disc = math.sqrt(max(self._V2 - self._4R * max(y0, 0.0), 1e-12))
+        s_b = self._soc_per_amp_second / disc
+        sigma = math.sqrt(max(float(mean_power_variance), 0.0))
+        p = self.params
+        self._margin_const = float(p.margin_floor) + float(p.fault_reserve)
+        self._margin_rate = float(p.margin_sigmas) * s_b * sigma  # [1/s]
+
+    def Margin(self, t):
+        """m(t) [-] for the remaining time t [s]."""
+        return self._margin_const + self._margin_rate * np.asarray(t, dtype=float)
+
+    def SocCurve(self, power: float) -> np.ndarray:
+        """b at the nodes k·h_T (k = 0 … n) under the held computation power g(c2) = ``power``
+        [W]; −inf from the first node whose step contains a brown-out load."""
+        key = float(power)
+        if key not in self._cache:
+            y = self.f_half + (key - self.g_now)
+            soc = SimpsonSoc(y, self.soc0, self.battery, self.step)
+            brown = IsBrownout(y, self.battery.voltage, self.battery.internal_resistance)
+            if np.any(brown):
+                first = int(np.argmax(brown))
+                soc[(first + 1) // 2 :] = -np.inf
+            self._cache[key] = soc
+        return self._cache[key]
+
+    def SocAt(self, power: float, t):
+        """b(t; c2) [-] by linear interpolation of :meth:`SocCurve` (t in [0, n·h_T])."""
+        soc = self.SocCurve(power)
+        nodes = np.arange(soc.size) * self.step
+        return np.interp(np.asarray(t, dtype=float), nodes, soc)
+
+    def RecursiveSlack(self, power: float) -> float:
+        """Left side minus right side of (2) [-] for the computation power ``power`` [W]."""
+        g_low = float(self.candidate_power[self.lowest_candidate])
+        h = self.step
+        t_low = float(self.t_rem[0])
+        b_low_end = float(self.SocAt(g_low, t_low))
+        return (
+            float(self.SocAt(power, h))
+            - float(self.SocAt(g_low, h))
+            + b_low_end
+            - float(self.battery.reserve_soc)
+            - float(self.Margin(t_low))
+        )
+
+    def FeasibleRow(self, power: float) -> tuple[np.ndarray, np.ndarray]:
+        """(feasible (M,), end SoC (M,)) of the plans (c1_j, c2) for g(c2) = ``power`` [W]."""
+        end = self.SocAt(power, self.t_rem)
+        ok = end >= float(self.battery.reserve_soc) + self.Margin(self.t_rem)
+        if self.RecursiveSlack(power) < 0.0:
+            ok = np.zeros_like(ok)
+        return ok, end
+
+    def Quality(self, j: int, u2: float) -> float:
+        """J of the plan (c1_j, c2 with mean normalised value u2) [-]."""
+        return self._w1 * float(self.u1[j]) + self._w2 * float(u2)
+
+    # -- answers -------------------------------------------------------------------------------
+
+    def _Decision(self, j: int, k: int, c2, end: float, feasible: bool) -> MissionDecision:
+        u2 = float(np.mean((np.asarray(c2) - self.lower) / self.span))
+        return MissionDecision(
+            path_index=int(j),
+            candidate_index=int(k),
+            path_parameter=float(self.grid[j]),
+            computation_parameters=np.asarray(c2, dtype=float).copy(),
+            quality=self.Quality(j, u2),
+            end_soc=float(end),
+            margin=float(self.Margin(self.t_rem[j])),
+            feasible=bool(feasible),
+        )
+
+    def Lowest(self) -> MissionDecision:
+        """The lowest plan (c̲1, c̲2), with its feasibility."""
+        k = self.lowest_candidate
+        ok, end = self.FeasibleRow(float(self.candidate_power[k]))
+        return self._Decision(0, k, self.candidates[k], end[0], bool(ok[0]))
+
+    def NominallyFeasible(self) -> bool:
+        """The lowest plan is feasible with the margin's constant part only (no uncertainty
+        term): when it is not, the survey is infeasible whatever the estimator's variance."""
+        rate = self._margin_rate
+        self._margin_rate = 0.0
+        try:
+            return self.Lowest().feasible
+        finally:
+            self._margin_rate = rate
+
+    def BestOf(self, candidates, powers, path_index_limit: int | None = None):
+        """The best feasible plan over the c2 ``candidates`` (rows) with exact ``powers`` [W],
+        each with its largest feasible grid c1 (at most ``path_index_limit``); None if none."""
+        best, best_key = None, None
+        for c2, power in zip(candidates, powers, strict=True):
+            ok, end = self.FeasibleRow(float(power))
+            if path_index_limit is not None:
+                ok = ok & (np.arange(ok.size) <= path_index_limit)
+            hits = np.flatnonzero(ok)
+            if not hits.size:
+                continue
+            j = int(hits[-1])
+            u2 = float(np.mean((np.asarray(c2) - self.lower) / self.span))
+            key = (round(self.Quality(j, u2), 12), float(end[j]))
+            if best_key is None or key > best_key:
+                best_key = key
+                best = (j, c2, float(end[j]))
+        return best
+
+    def BruteForce(self) -> MissionDecision:
+        """The exact optimum of the discrete problem by enumeration of every (c1_j, c2_k)."""
+        low = self.Lowest()
+        if not low.feasible:
+            return low
+        j, c2, end = self.BestOf(self.candidates, self.candidate_power)
+        k = _RowIndex(self.candidates, c2)
+        return self._Decision(j, k, c2, end, True)
+
+    def MapRelaxed(self, u2_relaxed) -> MissionDecision:
+        """The exact answer from a relaxed c̃2 (σ,): the best of its bracketing grid points and
+        the lowest (and the relaxed point itself if not integer), each with its largest feasible
+        c1, then improved by one-grid-step moves of c2."""
+        low = self.Lowest()
+        if not low.feasible:
+            return low
+        c_relaxed = self.lower + np.clip(np.asarray(u2_relaxed, float), 0.0, 1.0) * (
+            self.upper - self.lower
+        )
+        brackets = []
+        for grid, c in zip(self.table.parameter_grids, c_relaxed, strict=True):
+            i = int(np.clip(np.searchsorted(grid, c - 1e-9), 0, grid.size - 1))
+            brackets.append(sorted({float(grid[max(i - 1, 0)]), float(grid[i])}))
+        rows = [np.array(p) for p in itertools.product(*brackets)]
+        rows.append(self.candidates[self.lowest_candidate])
+        powers = [self.table.power(r) for r in rows]
+        if not self.integer:
+            rows.append(c_relaxed)
+            powers.append(self.table.power(c_relaxed))
+        best = self.BestOf(rows, powers)
+        # Local search from the rounded point: move c2 one grid step in any dimension (each
+        # with its largest feasible c1) while that improves the plan.
+        grids = self.table.parameter_grids
+        for _ in range(self.candidates.shape[0]):
+            j, c2, end = best
+            neighbours = []
+            for d, grid in enumerate(grids):
+                i = int(np.argmin(np.abs(grid - c2[d])))
+                for i2 in (i - 1, i + 1):
+                    if 0 <= i2 < grid.size:
+                        n = np.array(c2, dtype=float)
+                        n[d] = grid[i2]
+                        neighbours.append(n)
+            found = self.BestOf([c2, *neighbours], [self.table.power(r) for r in [c2, *neighbours]])
+            if found is None or np.array_equal(found[1], c2):
+                break
+            best = found
+        j, c2, end = best
+        k = _RowIndex(self.candidates, c2)
+        return self._Decision(j, k, c2, end, True)
+
+    def KeepPathParameter(self, path_parameter: float) -> MissionDecision:
+        """Failed-solve answer: c1 kept (the largest grid value not above it) with the best c2
+        that the exact check admits there; if none, the best plan with a lower c1; the lowest
+        plan (with its feasibility) if none at all."""
+        low = self.Lowest()
+        if not low.feasible:
+            return low
+        j = int(np.clip(np.searchsorted(self.grid, float(path_parameter) + 1e-9) - 1, 0, None))
+        best = None
+        for k in np.lexsort((-self.candidate_power, -self.candidate_u2)):  # best c2 first
+            ok, end = self.FeasibleRow(float(self.candidate_power[k]))
+            if ok[j]:
+                best = (j, self.candidates[k], float(end[j]))
+                break
+        if best is None:
+            best = self.BestOf(self.candidates, self.candidate_power, j)
+        j, c2, end = best
+        return self._Decision(j, _RowIndex(self.candidates, c2), c2, end, True)
+
+    # -- smooth model of the NLP ---------------------------------------------------------------
+
+    def RemainingTime(self, u1: float) -> tuple[float, float]:
+        """(T(c̃1), dT/dc̃1) [s] of the relaxation: the lower convex hull of the staircase
+        (c̃1_j, t_rem_j) (the tightest convex under-estimate; its vertices are the ends of the
+        staircase's plateaus), interpolated by a monotone C¹ cubic (PCHIP, Fritsch–Carlson)."""
+        u, t = self.u1[self._hull], self.t_rem[self._hull]
+        if u.size == 1:
+            return float(t[0]), 0.0
+        i = int(np.clip(np.searchsorted(u, u1, side="right") - 1, 0, u.size - 2))
+        h = u[i + 1] - u[i]
+        s = (u1 - u[i]) / h
+        d0, d1 = self._slopes[i], self._slopes[i + 1]
+        h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+        h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+        value = h00 * t[i] + h10 * h * d0 + h01 * t[i + 1] + h11 * h * d1
+        dh00, dh10 = (6 * s**2 - 6 * s) / h, (3 * s**2 - 4 * s + 1) / h
+        dh01, dh11 = (-6 * s**2 + 6 * s) / h, (3 * s**2 - 2 * s) / h
+        slope = dh00 * t[i] + dh10 * h * d0 + dh01 * t[i + 1] + dh11 * h * d1
+        return float(value), float(slope)
+
+    def SmoothSoc(self, power: float, t: float) -> tuple[float, float, float]:
+        """(b(t), ∂b/∂t, ∂b/∂g) at the held computation power ``power`` [W] (no caching).
+
+        Cubic Hermite interpolation of the Simpson node values with the node rates ḃ(t_k) (and
+        likewise for ∂b/∂g), so that b is continuously differentiable in t for IPOPT.
+        """
+        h = self.step
+        y = self.f_half + (power - self.g_now)
+        disc = np.sqrt(np.maximum(self._V2 - self._4R * y, 1e-12))
+        rate = -self._soc_per_amp_second * 2.0 * y / (np.sqrt(self._V2) + disc)  # ḃ [1/s]
+        drate = -self._soc_per_amp_second / disc  # ∂ḃ/∂g [1/(W s)]
+        soc = self.soc0 + np.concatenate(
+            ([0.0], np.cumsum(h * (rate[0:-2:2] + 4.0 * rate[1:-1:2] + rate[2::2]) / 6.0))
+        )
+        dsoc = np.concatenate(
+            ([0.0], np.cumsum(h * (drate[0:-2:2] + 4.0 * drate[1:-1:2] + drate[2::2]) / 6.0))
+        )
+        k = int(np.clip(math.floor(t / h), 0, soc.size - 2))
+        a = min(max(t / h - k, 0.0), 1.0) if t <= (soc.size - 1) * h else t / h - k
+        h00, h10 = 2 * a**3 - 3 * a**2 + 1, a**3 - 2 * a**2 + a
+        h01, h11 = -2 * a**3 + 3 * a**2, a**3 - a**2
+        dh00, dh10 = 6 * a**2 - 6 * a, 3 * a**2 - 4 * a + 1
+        dh01, dh11 = -6 * a**2 + 6 * a, 3 * a**2 - 2 * a
+        r0, r1 = rate[2 * k], rate[2 * k + 2]
+        value = h00 * soc[k] + h10 * h * r0 + h01 * soc[k + 1] + h11 * h * r1
+        slope = (dh00 * soc[k] + dh01 * soc[k + 1]) / h + dh10 * r0 + dh11 * r1
+        dg = h00 * dsoc[k] + h10 * h * drate[2 * k] + h01 * dsoc[k + 1] + h11 * h * drate[2 * k + 2]
+        return float(value), float(slope), float(dg)
+
+
+def _LowerHull(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Indices of the vertices of the lower convex hull of the points (x, y), x ascending."""
+    hull: list[int] = []
+    for k in range(x.size):
+        while len(hull) >= 2:
+            i, j = hull[-2], hull[-1]
+            if (y[j] - y[i]) * (x[k] - x[i]) >= (y[k] - y[i]) * (x[j] - x[i]):
+                hull.pop()  # j lies on or above the chord i–k
+            else:
+                break
+        hull.append(k)
+    return np.array(hull, dtype=int)
+
+
+def _PchipSlopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Node derivatives of the monotone cubic interpolant of (x, y) (Fritsch–Carlson)."""
+    if x.size < 2:
+        return np.zeros_like(y)
+    delta = np.diff(y) / np.diff(x)
+    d = np.zeros_like(y)
+    d[0], d[-1] = delta[0], delta[-1]
+    for k in range(1, x.size - 1):
+        a, b = delta[k - 1], delta[k]
+        if a * b > 0.0:  # weighted harmonic mean; 0 at a local extremum or a plateau
+            w1 = 2 * (x[k + 1] - x[k]) + (x[k] - x[k - 1])
+            w2 = (x[k + 1] - x[k]) + 2 * (x[k] - x[k - 1])
+            d[k] = (w1 + w2) / (w1 / a + w2 / b)
+    return d
+
+
+def _RowIndex(rows: np.ndarray, row) -> int:
+    hits = np.flatnonzero(np.all(np.isclose(rows, np.asarray(row)), axis=1))
+    return int(hits[0]) if hits.size else -1
+
+
+class MissionProgram:
+    """The continuous relaxation of :class:`MissionProblem` as a ``MathematicalProgram`` solved
+    with IPOPT (see the module docstring), built once and re-used every step.
+
+    Attributes:
+        prog: the MathematicalProgram.
+        path_variable: c̃1 (1,).
+        computation_variables: c̃2 (σ,).
+        variables: [c̃1, c̃2] (the layout of initial guesses).
+    """
+
+    def __init__(self, problem: MissionProblem):
+        self.problem = problem
+        self.scale = _CONSTRAINT_SCALE
+        p = problem.params
+        sigma = problem.table.num_parameters
+        prog = MathematicalProgram()
+        u1 = prog.NewContinuousVariables(1, "c1")
+        u2 = prog.NewContinuousVariables(sigma, "c2")
+        prog.AddBoundingBoxConstraint(0.0, 1.0, u1)
+        prog.AddBoundingBoxConstraint(0.0, 1.0, u2)
+        prog.AddLinearCost(
+            np.concatenate(([-problem._w1], np.full(sigma, -problem._w2 / sigma))),
+            0.0,
+            np.concatenate((u1, u2)),
+        )
+        prog.AddConstraint(
+            self._Constraints,
+            np.zeros(2),
+            np.full(2, np.inf),
+            np.concatenate((u1, u2)),
+            description="mission_feasibility",
+        )
+        self.prog = prog
+        self.path_variable = u1
+        self.computation_variables = u2
+        self.variables = np.concatenate((u1, u2))
+        self.solver = IpoptSolver()
+        self.options = SolverOptions()
+        sid = self.solver.id()
+        self.options.SetOption(sid, "max_iter", int(p.max_iterations))
+        if p.max_wall_time > 0.0:  # opt-in real-time budget: results then depend on the CPU
+            self.options.SetOption(sid, "max_wall_time", float(p.max_wall_time))
+        self.options.SetOption(sid, "tol", 1e-8)
+        self.options.SetOption(sid, "print_level", 0)
+        self.options.SetOption(sid, "sb", "yes")
+
+    def _Constraints(self, x):
+        """[(1), (2)] at x = [c̃1, c̃2] (≥ 0 when feasible), smooth model, analytic Jacobian."""
+        autodiff = x.dtype == object
+        xv = ExtractValue(x).reshape(-1) if autodiff else np.asarray(x, dtype=float)
+        pb = self.problem
+        sur = pb.surrogate
+        u1, u2 = float(xv[0]), xv[1:]
+        g = float(sur.value(u2.reshape(1, -1))[0])
+        t, dt_du1 = pb.RemainingTime(u1)
+        b_end, db_dt, db_dg = pb.SmoothSoc(g, t)
+        reserve = float(pb.battery.reserve_soc)
+        c1 = b_end - reserve - float(pb.Margin(t))
+        g_low = float(pb.candidate_power[pb.lowest_candidate])
+        t_low = float(pb.t_rem[0])
+        b_step, _, db_step_dg = pb.SmoothSoc(g, pb.step)
+        low_step = pb.SmoothSoc(g_low, pb.step)[0]
+        low_end = pb.SmoothSoc(g_low, t_low)[0]
+        c2 = b_step - low_step + low_end - reserve - float(pb.Margin(t_low))
+        out = self.scale * np.array([c1, c2])
+        if not autodiff:
+            return out
+        grad_g = sur.gradient(u2.reshape(1, -1))[0]  # (σ,)
+        J = np.zeros((2, xv.size))
+        J[0, 0] = (db_dt - pb._margin_rate) * dt_du1
+        J[0, 1:] = db_dg * grad_g
+        J[1, 1:] = db_step_dg * grad_g
+        return InitializeAutoDiff(out, self.scale * J @ ExtractGradient(x))
+
+    def Solve(self, initial_guess):
+        """Solves with IPOPT from ``initial_guess`` (layout of :attr:`variables`)."""
+        guess = np.clip(np.asarray(initial_guess, dtype=float), 0.0, 1.0)
+        return self.solver.Solve(self.prog, guess, self.options)

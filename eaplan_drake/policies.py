@@ -1,0 +1,312 @@
+"""Planner policies: the seam between the :class:`~eaplan_drake.planner.PlannerScheduler` and
+whatever decides c1 [m²] and c2 [table units] every h_T [s].
+
+``planner.policy`` in the scenario selects one (:func:`MakePolicy`); a Python user may pass any
+:class:`~eaplan_drake.planner.PlannerPolicy` to
+:func:`~eaplan_drake.diagram.MakeEaplanDiagram` instead. All share the scheduler's ports.
+
+- ``mpc`` (:class:`MpcPolicy`, default): the mission-feasible MPC of :mod:`eaplan_drake.mpc`.
+- ``paper`` (:class:`PaperPolicy`): paper 003 Eq. 16 + Alg. 2 as published
+  (:class:`~eaplan_drake.planner.Planner`: Def. III.3 output constraint, Eq. 10 line, rate-limited
+  path rule); the four reference flights use it.
+- ``greedy`` (:class:`GreedyPolicy`): a one-step rule fed the MPC's signals (exact remaining
+  time, estimated power, Rint battery) but with no margin and one parameter at a time: c2 is the
+  best value whose plan at the current c1 ends at or above the reserve, then c1 moves by at most
+  δ1 towards the largest grid value that does too.
+- ``greedy_authors`` (:class:`GreedyAuthorsPolicy`): the authors' MATLAB rule: c2 by brute force
+  over the table's values held for the horizon, maximising Σ y² subject to y ≤ b·Q_c·V at every
+  step end (the lowest if none); c1 moved by ±δ1 each step depending on whether the remaining
+  time estimated from the elapsed time, t_rem = (t̂/t̄)(t̄ − t) with t̂ = t(c1) and t̄ = t(c̄1) of the
+  Eq. 10 line, exceeds the predicted time to the reserve.
+- ``static`` (:class:`StaticPolicy`): hold the initial parameters.
+- ``hindsight``: not a policy of the loop but the best constant pair of a grid flown on the same
+  world (:func:`~eaplan_drake.simulation.FlyHindsight`); each of its flights is static.
+"""
+
+import copy
+import math
+import time
+
+import numpy as np
+
+from eaplan_drake.computation import ComputationTable
+from eaplan_drake.mpc import MissionProblem, MissionProgram
+from eaplan_drake.params import BatteryParams, PlannerParams
+from eaplan_drake.planner import (
+    Planner,
+    PlannerDecision,
+    PlannerObservation,
+    PlannerPolicy,
+)
+
+__all__ = [
+    "GreedyAuthorsPolicy",
+    "GreedyPolicy",
+    "MakePolicy",
+    "MpcPolicy",
+    "PaperPolicy",
+    "StaticPolicy",
+]
+
+
+def _Finite(observation: PlannerObservation) -> bool:
+    o = observation
+    values = np.concatenate(
+        (
+            o.energy_coefficients,
+            o.remaining_time,
+            o.computation_parameters,
+            [o.mean_power_variance, o.soc, o.period, o.coverage_remaining, o.path_parameter],
+        )
+    )
+    return bool(np.all(np.isfinite(values)) and o.period > 0.0)
+
+
+class StaticPolicy(PlannerPolicy):
+    """Holds the initial parameters (paper 003 plans I and II)."""
+
+    name = "static"
+    acts = False
+
+    def Plan(self, observation, memory) -> PlannerDecision:
+        return PlannerDecision(
+            observation.path_parameter, observation.computation_parameters.copy(), memory
+        )
+
+
+class PaperPolicy(PlannerPolicy):
+    """Paper 003 Eq. 16 + Alg. 2 (:class:`~eaplan_drake.planner.Planner`); memory: the warm
+    start of its NLP."""
+
+    name = "paper"
+
+    def __init__(self, planner: Planner):
+        self.planner = planner
+
+    def InitialMemory(self) -> np.ndarray:
+        return self.planner.LowestWarmStart()
+
+    def Plan(self, observation, memory) -> PlannerDecision:
+        o = observation
+        sol = self.planner.Plan(
+            o.energy_coefficients,
+            o.soc,
+            o.period,
+            o.coverage_remaining,
+            o.computation_parameters,
+            o.path_parameter,
+            memory,
+        )
+        return PlannerDecision(
+            path_parameter=sol.path_parameter,
+            computation_parameters=sol.computation_parameters,
+            memory=sol.warm_start,
+            success=sol.success,
+            feasible=sol.success and sol.feasible,
+            status=sol.status,
+            solve_time=sol.solve_time,
+        )
+
+
+class MpcPolicy(PlannerPolicy):
+    """The mission-feasible MPC (:mod:`eaplan_drake.mpc`): the NLP relaxation solved with IPOPT
+    (iterations bounded, never wall time), mapped exactly onto the grids; memory: the relaxed
+    solution [c̃1, c̃2] (the next warm start)."""
+
+    name = "mpc"
+
+    def __init__(self, problem: MissionProblem):
+        self.problem = problem
+        self.program = MissionProgram(problem)
+
+    def InitialMemory(self) -> np.ndarray:
+        return np.zeros(self.program.variables.size)
+
+    def Plan(self, observation, memory) -> PlannerDecision:
+        o = observation
+        pb = self.problem
+        if not _Finite(o):
+            low = pb.candidates[pb.lowest_candidate]
+            return PlannerDecision(
+                float(pb.grid[0]), low.copy(), memory, False, False, "invalid input"
+            )
+        pb.SetState(
+            o.energy_coefficients,
+            o.mean_power_variance,
+            o.soc,
+            o.period,
+            o.remaining_time,
+            o.computation_parameters,
+        )
+        low = pb.Lowest()
+        if not low.feasible:
+            nominal = pb.NominallyFeasible()
+            return PlannerDecision(
+                low.path_parameter,
+                low.computation_parameters,
+                memory,
+                True,
+                nominal,
+                "uncertain: the lowest plan until the estimate settles"
+                if nominal
+                else "infeasible: the lowest plan ends below reserve + margin",
+            )
+        t0 = time.perf_counter()
+        # From the warm start, then (deterministically) from the lowest plan, which is feasible,
+        # then from the middle of the box.
+        for start in (memory, np.zeros_like(memory), np.full_like(memory, 0.5)):
+            try:
+                result = self.program.Solve(start)
+                ok = result.is_success()
+                status = result.get_solution_result().name
+                x = result.get_x_val() if ok else None
+            except RuntimeError as e:  # a solver error is a failed solve, never raised
+                ok, status, x = False, f"error: {e}", None
+            if ok:
+                break
+        solve_time = time.perf_counter() - t0
+        if ok and not np.all(np.isfinite(x)):
+            ok, status = False, "non-finite solution"
+        if not ok:
+            d = pb.KeepPathParameter(o.path_parameter)
+            return PlannerDecision(
+                d.path_parameter,
+                d.computation_parameters,
+                memory,
+                False,
+                d.feasible,
+                f"solver failed: {status}",
+                solve_time,
+            )
+        d = pb.MapRelaxed(x[1:])
+        return PlannerDecision(
+            d.path_parameter,
+            d.computation_parameters,
+            np.clip(x, 0.0, 1.0),
+            True,
+            True,
+            status,
+            solve_time,
+        )
+
+
+class GreedyPolicy(PlannerPolicy):
+    """One-step rule on the MPC's signals with no margin (see the module docstring)."""
+
+    name = "greedy"
+
+    def __init__(self, problem: MissionProblem):
+        self.problem = problem
+
+    def Plan(self, observation, memory) -> PlannerDecision:
+        o = observation
+        pb = self.problem
+        if not _Finite(o):
+            low = pb.candidates[pb.lowest_candidate]
+            return PlannerDecision(
+                float(pb.grid[0]), low.copy(), memory, False, False, "invalid input"
+            )
+        pb.SetState(
+            o.energy_coefficients,
+            o.mean_power_variance,
+            o.soc,
+            o.period,
+            o.remaining_time,
+            o.computation_parameters,
+        )
+        reserve = float(pb.battery.reserve_soc)
+        j_now = int(np.clip(np.searchsorted(pb.grid, o.path_parameter + 1e-9) - 1, 0, None))
+        # c2: the best candidate whose plan at the current c1 ends at or above the reserve.
+        order = np.lexsort((-pb.candidate_power, -pb.candidate_u2))
+        k = pb.lowest_candidate
+        for i in order:
+            if pb.SocAt(float(pb.candidate_power[i]), pb.t_rem[j_now]) >= reserve:
+                k = int(i)
+                break
+        # c1: towards the largest grid value that ends at or above the reserve, by at most δ1.
+        end = pb.SocAt(float(pb.candidate_power[k]), pb.t_rem)
+        hits = np.flatnonzero(end >= reserve)
+        target = float(pb.grid[hits[-1]]) if hits.size else float(pb.grid[0])
+        step = float(pb.params.path_parameter_step)
+        c1 = min(max(target, o.path_parameter - step), o.path_parameter + step)
+        feasible = bool(hits.size)
+        return PlannerDecision(c1, pb.candidates[k].copy(), memory, True, feasible, "")
+
+
+class GreedyAuthorsPolicy(PlannerPolicy):
+    """The authors' MATLAB rule (see the module docstring), on the paper planner's model."""
+
+    name = "greedy_authors"
+
+    def __init__(self, planner: Planner):
+        self.planner = planner
+
+    def Plan(self, observation, memory) -> PlannerDecision:
+        o = observation
+        p = self.planner
+        if not _Finite(o):
+            return PlannerDecision(
+                p.coverage_time.bounds[0], p.lower.copy(), memory, False, False, "invalid input"
+            )
+        N = p.horizon
+        f_half = p._Rows(float(o.period)) @ o.energy_coefficients
+        g_prev = p.table.power(o.computation_parameters)
+        # c2: maximise Σ y² over the horizon subject to y ≤ b·Q_c·V at every step end.
+        best, best_score, feasible = None, -math.inf, False
+        for c, g in zip(p._candidates, p._candidate_power, strict=True):
+            soc, ok = o.soc, True
+            score = 0.0
+            for k in range(N):
+                f3 = f_half[2 * k : 2 * k + 3]
+                good, soc_end = p._Feasible(f3, g - g_prev, soc)
+                ok = ok and bool(good[0])
+                soc = float(soc_end[0])
+                score += float(f3[2] + g - g_prev) ** 2
+            if ok and score > best_score:
+                best, best_score, feasible = c, score, True
+        c2 = p.lower.copy() if best is None else best.copy()
+        dg = np.full(N, p.table.power(c2) - g_prev)
+        t_b = p.TimeToReserve(f_half, dg, o.soc)
+        # c1: ±δ1 by the remaining time estimated from the elapsed time (Eq. 10 line).
+        model = p.coverage_time
+        t_bar = model(model.bounds[1])
+        t_rem = model(o.path_parameter) / t_bar * max(t_bar - o.time, 0.0)
+        step = float(p.params.path_parameter_step)
+        c1 = o.path_parameter - step if t_rem > t_b else o.path_parameter + step
+        c1 = min(max(c1, model.bounds[0]), model.bounds[1])
+        return PlannerDecision(c1, c2, memory, True, feasible, "")
+
+
+def MakePolicy(
+    planner: PlannerParams,
+    table: ComputationTable,
+    order: int,
+    battery: BatteryParams,
+    *,
+    coverage_time_bounds,
+    path_parameter_grid,
+    integer: bool = True,
+) -> PlannerPolicy:
+    """The policy ``planner.policy`` names (``hindsight`` flights are static).
+
+    ``coverage_time_bounds`` = (t(c̲1), t(c̄1)) [s] of the Eq. 10 line (paper, greedy_authors);
+    ``path_parameter_grid`` = the c1 values [m²] of the sequencer's ``remaining_time`` (mpc,
+    greedy). Parameters are copied: later changes to the caller's objects do not reach the policy.
+    """
+    planner = copy.deepcopy(planner)
+    battery = copy.deepcopy(battery)
+    planner.Validate("planner")
+    battery.Validate("battery")
+    name = planner.policy
+    if planner.is_static:
+        return StaticPolicy()
+    if name in ("paper", "greedy_authors"):
+        paper = Planner(planner, table, order, battery, coverage_time_bounds, integer)
+        return PaperPolicy(paper) if name == "paper" else GreedyAuthorsPolicy(paper)
+    if name == "greedy":
+        no_margin = copy.deepcopy(planner)
+        no_margin.margin_floor = no_margin.margin_sigmas = no_margin.fault_reserve = 0.0
+        problem = MissionProblem(no_margin, table, order, battery, path_parameter_grid, integer)
+        return GreedyPolicy(problem)
+    problem = MissionProblem(planner, table, order, battery, path_parameter_grid, integer)
+    return MpcPolicy(problem)

@@ -1,0 +1,72 @@
+"""Randomised worlds: a base scenario with wind, battery faults and sensor drawn from a seed.
+
+A *world* is everything a policy does not choose: the wind, the battery faults, the sensor's
+noise, dropouts and seed. :func:`DrawWorld` draws one reproducibly from an integer seed (numpy's
+``default_rng``), so the same seed gives the same world on any machine and in any process; the
+policies are then flown on identical worlds (:func:`WithPolicy`).
+"""
+
+import copy
+import dataclasses as dc
+
+import numpy as np
+
+from eaplan_drake.params import BatteryFault, Scenario
+
+__all__ = ["DrawWorld", "WithPolicy", "WorldDistribution"]
+
+
+@dc.dataclass(frozen=True)
+class WorldDistribution:
+    """Ranges the worlds are drawn from (each uniform unless said otherwise)."""
+
+    max_wind_speed: float = 12.0
+    """‖w‖ in [0, max] [m/s]; the direction uniform in [0, 360) deg."""
+    max_faults: int = 3
+    """Number of SoC drops, an integer in [0, max]."""
+    max_soc_drop: float = 0.15
+    """Size of each drop in (0, max] [-]."""
+    fault_window: tuple[float, float] = (0.0, 500.0)
+    """Time of each drop [s]."""
+    noise_std: tuple[float, float] = (0.1, 3.0)
+    """Sensor noise standard deviation [W]."""
+    max_dropout_probability: float = 0.3
+    """Probability that a sensor sample is lost, in [0, max]."""
+
+
+def DrawWorld(base: Scenario, seed: int, distribution: WorldDistribution | None = None) -> Scenario:
+    """A copy of ``base`` with the world drawn from ``seed`` (an integer >= 0); its name is
+    ``<base name>_w<seed>``. The policy and its parameters are the base's."""
+    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
+        raise ValueError(f"seed: must be an integer >= 0, got {seed!r}")
+    d = WorldDistribution() if distribution is None else distribution
+    rng = np.random.default_rng(int(seed))
+    s = copy.deepcopy(base)
+    s.name = f"{base.name}_w{int(seed)}"
+    s.wind.speed = float(rng.uniform(0.0, d.max_wind_speed))
+    s.wind.direction_deg = float(rng.uniform(0.0, 360.0))
+    n = int(rng.integers(0, d.max_faults + 1))
+    times = np.sort(rng.uniform(*d.fault_window, size=n))
+    drops = rng.uniform(0.0, d.max_soc_drop, size=n)
+    s.battery.faults = [
+        BatteryFault(time=float(t), soc_drop=float(max(x, 1e-6)))
+        for t, x in zip(times, drops, strict=True)
+    ]
+    s.sensor.noise_std = float(rng.uniform(*d.noise_std))
+    s.sensor.dropout_probability = float(rng.uniform(0.0, d.max_dropout_probability))
+    s.sensor.seed = int(rng.integers(0, 2**31 - 1))
+    s.estimator.measurement_noise = s.sensor.noise_std**2
+    return s.Validate()
+
+
+def WithPolicy(world: Scenario, policy: str, **planner) -> Scenario:
+    """A copy of ``world`` flown with ``policy`` (``planner.policy``); ``planner`` keywords set
+    further :class:`~eaplan_drake.params.PlannerParams` fields (e.g. the static lowest plan:
+    ``WithPolicy(w, "static", initial_path_parameters=[-1000.0])`` plus its c2)."""
+    s = copy.deepcopy(world)
+    s.planner.policy = policy
+    for key, value in planner.items():
+        if not hasattr(s.planner, key):
+            raise ValueError(f"planner.{key}: unknown key")
+        setattr(s.planner, key, value)
+    return s.Validate()

@@ -1,0 +1,254 @@
+"""Tests of the mission-feasible MPC (eaplan_drake.mpc): exact prediction against the Rint closed
+form, the discrete problem, the NLP's agreement with brute force, recursive feasibility, the
+margin and the deterministic fallback."""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
+
+from eaplan_drake.battery import SocAfter
+from eaplan_drake.computation import LoadComputationTable
+from eaplan_drake.coverage import MakeCoveragePlan, StageTime
+from eaplan_drake.mpc import MissionProblem
+from eaplan_drake.params import BatteryParams, CoverageParams, PlannerParams, VehicleParams
+from eaplan_drake.planner import PlannerObservation
+from eaplan_drake.policies import MakePolicy, MpcPolicy
+
+ORDER = 3
+PERIOD = 46.0
+GRID = np.linspace(-1000.0, 0.0, 21)
+BATTERY = BatteryParams()
+
+
+@pytest.fixture(scope="module")
+def table():
+    return LoadComputationTable("pednet_jetson_nano")
+
+
+def _Staircase(rng, t_low=150.0, t_high=450.0, steps=5):
+    """A monotone staircase of remaining times over GRID [s] (plateaus with small slopes)."""
+    edges = np.sort(rng.uniform(0.0, 1.0, steps - 1))
+    u = np.linspace(0.0, 1.0, GRID.size)
+    level = np.searchsorted(edges, u)
+    return t_low + (t_high - t_low) * level / (steps - 1) + 3.0 * u
+
+
+def _Problem(table, **planner):
+    return MissionProblem(PlannerParams(**planner), table, ORDER, BATTERY, GRID)
+
+
+def _Observation(q, variance, soc, t_rem, c2=10.0, c1=0.0):
+    return PlannerObservation(
+        time=100.0,
+        energy_coefficients=np.asarray(q, dtype=float),
+        mean_power_variance=variance,
+        soc=soc,
+        period=PERIOD,
+        coverage_remaining=0.5,
+        remaining_time=np.asarray(t_rem, dtype=float),
+        path_parameter=c1,
+        computation_parameters=np.array([c2]),
+    )
+
+
+def _RandomState(rng):
+    q = np.concatenate(([rng.uniform(26.0, 40.0)], rng.normal(0.0, 1.5, 2 * ORDER)))
+    t_rem = _Staircase(rng, rng.uniform(60.0, 300.0), rng.uniform(320.0, 900.0))
+    return q, 10 ** rng.uniform(-5, -1), rng.uniform(0.32, 1.0), t_rem
+
+
+@pytest.fixture(scope="module")
+def plan():
+    return MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=0.0)
+
+
+def _FlightState(rng, plan):
+    """A planner state as in flight: the reference plan at a random c1, a random stage and point
+    on it, a random wind (0–12 m/s, any direction), and the exact remaining times at GRID."""
+    c1 = float(rng.choice(GRID))
+    stages = plan.Stages(c1)
+    stage = stages[int(rng.integers(0, len(stages)))]
+    speed, direction = rng.uniform(0.0, 12.0), rng.uniform(0.0, 2.0 * math.pi)
+    wind = speed * np.array([math.cos(direction), math.sin(direction)])
+    left = rng.uniform(0.0, 1.0) * StageTime(stage, 15.0, wind)
+    t_rem = np.array(
+        [left + plan.TimeAfter(stage.index, stage.anchor, c, 15.0, wind) for c in GRID]
+    )
+    q = np.concatenate(([rng.uniform(26.0, 40.0)], rng.normal(0.0, 1.5, 2 * ORDER)))
+    return q, 10 ** rng.uniform(-5, -1), rng.uniform(0.32, 1.0), t_rem, c1
+
+
+def test_soc_prediction_matches_the_rint_closed_form_for_a_constant_load(table):
+    pb = _Problem(table, margin_sigmas=0.0)
+    q = np.zeros(2 * ORDER + 1)
+    q[0] = 31.0  # constant load, current parameters c2 = 10
+    pb.SetState(q, 0.0, 0.9, PERIOD, np.linspace(100.0, 400.0, GRID.size), [10.0])
+    for c2 in (2.0, 6.0, 10.0):
+        load = 31.0 + table.power([c2]) - table.power([10.0])
+        for t in (0.0, 1.0, 37.3, 250.0, 399.9):
+            expected = SocAfter(0.9, load, t, BATTERY)
+            assert pb.SocAt(table.power([c2]), t) == pytest.approx(expected, abs=1e-12)
+            value, slope, _ = pb.SmoothSoc(table.power([c2]), t)
+            assert value == pytest.approx(expected, abs=1e-12)
+            assert slope == pytest.approx((SocAfter(0.9, load, 1.0, BATTERY) - 0.9), rel=1e-9)
+
+
+def test_smooth_constraint_jacobian_matches_finite_differences(table):
+    rng = np.random.default_rng(3)
+    policy = MakePolicy(
+        PlannerParams(),
+        table,
+        ORDER,
+        BATTERY,
+        coverage_time_bounds=(1, 2),
+        path_parameter_grid=GRID,
+    )
+    pb, program = policy.problem, policy.program
+    q, var, soc, t_rem = _RandomState(rng)
+    pb.SetState(q, var, soc, PERIOD, t_rem, [10.0])
+    for x in ([0.3, 0.6], [0.71, 0.05], [0.52, 0.93]):
+        x = np.array(x)
+        J = ExtractGradient(program._Constraints(InitializeAutoDiff(x)))
+        for i in range(2):
+            e = np.zeros(2)
+            e[i] = 1e-6
+            fd = (program._Constraints(x + e) - program._Constraints(x - e)) / 2e-6
+            np.testing.assert_allclose(J[:, i], fd, rtol=1e-4, atol=1e-5)
+
+
+def test_plenty_of_battery_gives_the_highest_plan_and_none_the_lowest_flagged(table):
+    pb = _Problem(table)
+    q = np.array([33.0, 2.0, 0.5, 1.0, 0.0, 0.2, 0.1])
+    pb.SetState(q, 1e-4, 1.0, PERIOD, np.full(GRID.size, 60.0), [10.0])
+    best = pb.BruteForce()
+    assert best.feasible and best.path_parameter == 0.0
+    assert best.computation_parameters[0] == 10.0 and best.quality == 1.0
+    pb.SetState(q, 1e-4, 0.31, PERIOD, np.full(GRID.size, 60.0), [10.0])
+    low = pb.BruteForce()
+    assert not low.feasible
+    assert low.path_parameter == -1000.0 and low.computation_parameters[0] == 2.0
+
+
+def test_brute_force_is_the_best_feasible_plan_and_keeps_the_margin(table):
+    rng = np.random.default_rng(11)
+    pb = _Problem(table, margin_floor=0.03, margin_sigmas=3.0)
+    reserve = BATTERY.reserve_soc
+    checked = 0
+    for _ in range(40):
+        q, var, soc, t_rem = _RandomState(rng)
+        pb.SetState(q, var, soc, PERIOD, t_rem, [10.0])
+        d = pb.BruteForce()
+        if not d.feasible:
+            continue
+        checked += 1
+        power = table.power(d.computation_parameters)
+        end = pb.SocAt(power, t_rem[d.path_index])
+        margin = 0.03 + 3.0 * math.sqrt(var) * t_rem[d.path_index] * pb._margin_rate / (
+            3.0 * math.sqrt(var)
+        )
+        assert end >= reserve + margin - 1e-12 and d.margin == pytest.approx(margin)
+        assert pb.RecursiveSlack(power) >= 0.0  # (2): the lowest plan after one step completes
+        # No feasible plan has a higher quality (enumerated here independently).
+        for c2 in table.parameter_grids[0]:
+            for j in range(GRID.size):
+                p = table.power([c2])
+                ok = pb.SocAt(p, t_rem[j]) >= reserve + pb.Margin(t_rem[j])
+                ok = ok and pb.RecursiveSlack(p) >= 0.0
+                if ok:
+                    assert pb.Quality(j, (c2 - 2.0) / 8.0) <= d.quality + 1e-12
+    assert checked >= 15
+
+
+def test_more_uncertainty_or_less_charge_never_raises_the_quality(table):
+    rng = np.random.default_rng(5)
+    pb = _Problem(table)
+    for _ in range(20):
+        q, var, soc, t_rem = _RandomState(rng)
+        pb.SetState(q, var, soc, PERIOD, t_rem, [10.0])
+        base = pb.BruteForce()
+        pb.SetState(q, var * 100.0, soc, PERIOD, t_rem, [10.0])
+        assert pb.BruteForce().quality <= base.quality + 1e-12
+        pb.SetState(q, var, soc - 0.05, PERIOD, t_rem, [10.0])
+        assert pb.BruteForce().quality <= base.quality + 1e-12
+
+
+def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan):
+    """Issue 8: the NLP (IPOPT + exact mapping) agrees with enumeration in >= 99 % of random
+    feasible planner states (a seeded set; benchmarks/bench_planner.py measures more)."""
+    policy = MakePolicy(
+        PlannerParams(),
+        table,
+        ORDER,
+        BATTERY,
+        coverage_time_bounds=(1, 2),
+        path_parameter_grid=GRID,
+    )
+    assert isinstance(policy, MpcPolicy)
+    rng = np.random.default_rng(2024)
+    memory = policy.InitialMemory()
+    agree = total = 0
+    while total < 100:
+        q, var, soc, t_rem, c1 = _FlightState(rng, plan)
+        c2_now = float(rng.choice(table.parameter_grids[0]))
+        policy.problem.SetState(q, var, soc, PERIOD, t_rem, [c2_now])
+        if not policy.problem.Lowest().feasible:
+            continue
+        expected = policy.problem.BruteForce()
+        d = policy.Plan(_Observation(q, var, soc, t_rem, c2=c2_now, c1=c1), memory)
+        memory = d.memory
+        total += 1
+        agree += d.path_parameter == expected.path_parameter and np.array_equal(
+            d.computation_parameters, expected.computation_parameters
+        )
+    assert agree / total >= 0.99, f"{agree} of {total}"
+
+
+def test_infeasible_mission_is_flagged_and_flies_the_lowest_plan(table):
+    policy = MakePolicy(
+        PlannerParams(),
+        table,
+        ORDER,
+        BATTERY,
+        coverage_time_bounds=(1, 2),
+        path_parameter_grid=GRID,
+    )
+    q = np.array([33.0, 2.0, 0.5, 1.0, 0.0, 0.2, 0.1])
+    d = policy.Plan(_Observation(q, 1e-4, 0.35, np.full(GRID.size, 400.0)), policy.InitialMemory())
+    assert not d.feasible and d.success
+    assert d.path_parameter == -1000.0 and d.computation_parameters[0] == 2.0
+    assert "infeasible" in d.status
+    bad = policy.Plan(_Observation(q * np.nan, 1e-4, 0.9, np.full(GRID.size, 100.0)), d.memory)
+    assert not bad.success and bad.path_parameter == -1000.0
+
+
+def test_failed_solve_keeps_c1_and_takes_the_best_admissible_c2(table):
+    policy = MakePolicy(
+        PlannerParams(max_iterations=1),
+        table,
+        ORDER,
+        BATTERY,
+        coverage_time_bounds=(1, 2),
+        path_parameter_grid=GRID,
+    )
+    rng = np.random.default_rng(9)
+    seen = 0
+    for _ in range(30):
+        q, var, soc, t_rem = _RandomState(rng)
+        d = policy.Plan(_Observation(q, var, soc, t_rem, c1=-500.0), policy.InitialMemory())
+        if d.success or not policy.problem.Lowest().feasible:
+            continue
+        seen += 1
+        pb = policy.problem
+        ok_at = [
+            c2
+            for c2 in table.parameter_grids[0]
+            if pb.FeasibleRow(table.power([c2]))[0][GRID.tolist().index(-500.0)]
+        ]
+        if ok_at:
+            assert d.path_parameter == -500.0
+            assert d.computation_parameters[0] == max(ok_at)
+        else:
+            assert d.path_parameter < -500.0
+    assert seen >= 5
