@@ -5,9 +5,13 @@ power (T = 46 s, mean ≈ 21 W, three harmonics), the PedNet computation table, 
 battery with the plan i faults (−6 % at 93 s, −9 % at 270 s), a noisy energy estimate q̂, and the
 coverage fraction advancing at 1/t(c1) per second. Starts after the warm-up (t = 92 s) from the
 plan i (c1 = 0, c2 = 10) and plan ii (c1 = −1000, c2 = 2) configurations. Prints the median and
-95th percentile of the IPOPT solve time and of the whole step, and the failure count. Not a test.
+95th percentile of the IPOPT solve time and of the whole step, and the failure count (paper
+policy). Then, for the mpc policy: on ``--states`` random feasible planner states as in flight
+(:func:`eaplan_drake.worlds.RandomPlannerObservation`: the reference plan at a random stage, wind
+0–12 m/s from any direction, random energy state and SoC), how often the NLP's first move equals
+brute-force enumeration of the same discrete problem, and its step times. Not a test.
 
-    python3 benchmarks/bench_planner.py [--steps 300] [--cold]
+    python3 benchmarks/bench_planner.py [--steps 300] [--cold] [--states 300]
 """
 
 import argparse
@@ -72,10 +76,53 @@ def Replay(planner: Planner, c1: float, c2: float, steps: int, seed: int, cold: 
     return solve_times, step_times, failures, infeasible, trace
 
 
+def MpcAgreement(states: int, seed: int = 8):
+    """(agreeing, total, failures, step times [s]) of the mpc policy against brute force."""
+    from eaplan_drake.coverage import MakeCoveragePlan
+    from eaplan_drake.params import Scenario
+    from eaplan_drake.policies import MakePolicy
+    from eaplan_drake.worlds import RandomPlannerObservation
+
+    scenario = Scenario()
+    table = LoadComputationTable(scenario.computation.table)
+    grid = scenario.planner.PathParameterGrid()
+    plan = MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=0.0)
+    policy = MakePolicy(
+        scenario.planner,
+        table,
+        ORDER,
+        scenario.battery,
+        coverage_time_bounds=COVERAGE_TIMES,
+        path_parameter_grid=grid,
+    )
+    pb = policy.problem
+    rng = np.random.default_rng(seed)
+    memory = policy.InitialMemory()
+    agree = total = failures = 0
+    times = []
+    while total < states:
+        o = RandomPlannerObservation(rng, plan, grid, table.parameter_grids[0])
+        pb.SetObservation(o)
+        if not pb.Lowest().feasible:
+            continue
+        expected = pb.BruteForce()
+        t0 = time.perf_counter()
+        d = policy.Plan(o, memory)
+        times.append(time.perf_counter() - t0)
+        memory = d.memory
+        total += 1
+        failures += not d.success
+        agree += d.path_parameter == expected.path_parameter and np.array_equal(
+            d.computation_parameters, expected.computation_parameters
+        )
+    return agree, total, failures, times
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=300, help="planner steps per start")
     parser.add_argument("--cold", action="store_true", help="no warm start")
+    parser.add_argument("--states", type=int, default=300, help="random states for the mpc")
     args = parser.parse_args()
 
     table = LoadComputationTable("pednet_jetson_nano")
@@ -111,6 +158,13 @@ def main():
     )
     print(f"failures         {fail}")
     print(f"infeasible steps {infeasible} (lowest c2 still above the budget: slack used)")
+    agree, total, failures, times = MpcAgreement(args.states)
+    ts = 1e3 * np.array(times)
+    print(
+        f"mpc vs brute force: first move equal in {agree} of {total} random feasible states "
+        f"({100.0 * agree / total:.1f} %), {failures} solver fallbacks; step median "
+        f"{np.median(ts):.1f} ms, p95 {np.percentile(ts, 95):.1f} ms"
+    )
     if not math.isfinite(np.median(ws)):
         raise SystemExit(1)
 

@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from eaplan_drake.params import ScenarioError
+from eaplan_drake.params import POLICIES, PlannerParams, ScenarioError
 
 __all__ = ["PAPER_RESULTS", "main"]
 
@@ -32,19 +32,26 @@ def _Progress(t: float, soc: float) -> None:
 def _FormatSummary(summary: dict) -> str:
     metric = summary.get("metric")
     planner = summary.get("planner", {})
+    infeasible_at = summary.get("first_infeasible_time")
     lines = [
-        f"scenario        {summary['scenario']}",
+        f"scenario        {summary['scenario']} (policy {summary.get('policy', '?')})",
         f"status          {summary['status']}",
+        f"quality         {summary['quality']:.3f} = mean(½c1~ + ½c2~), "
+        f"c1~ {summary['mean_path_parameter_normalised']:.3f}, "
+        f"c2~ {summary['mean_computation_parameter_normalised']:.3f}",
+        f"final margin    {summary['final_margin']:+.3f} (SoC {summary['final_soc']:.3f}, "
+        f"reserve {summary['reserve_soc']:.2f})",
         f"duration        {summary['duration']:.1f} s",
-        f"final SoC       {summary['final_soc']:.3f} (reserve {summary['reserve_soc']:.2f})",
-        f"mean c1~, c2~   {summary['mean_path_parameter_normalised']:.3f}, "
-        f"{summary['mean_computation_parameter_normalised']:.3f}",
-        f"metric P        {'fail' if metric is None else f'{metric:.3f}'}",
-        f"planner         {planner.get('solves', 0)} solves, {planner.get('failures', 0)} "
-        f"failures, median {1e3 * (planner.get('median_solve_time') or 0.0):.1f} ms",
+        f"metric P        {'fail' if metric is None else f'{metric:.3f}'} (paper's; see README)",
+        f"planner         {planner.get('solves', 0)} steps, {planner.get('failures', 0)} "
+        f"solver fallbacks, {planner.get('infeasible', 0)} infeasible"
+        + (f" (first at {infeasible_at:.1f} s)" if infeasible_at is not None else "")
+        + f", median solve {1e3 * (planner.get('median_solve_time') or 0.0):.1f} ms",
         f"wall time       {summary['wall_time']:.1f} s "
         f"({summary['realtime_factor']:.0f}x real time)",
     ]
+    if "hindsight" in summary:
+        lines.append(f"hindsight       {len(summary['hindsight'])} static flights flown")
     return "\n".join(lines)
 
 
@@ -53,6 +60,10 @@ def _Simulate(args) -> int:
     from eaplan_drake.simulation import LoadNamedScenario, Simulate
 
     scenario = LoadNamedScenario(args.scenario)
+    if args.policy:
+        scenario.planner.policy = args.policy
+        scenario.name = f"{scenario.name}_{args.policy}"
+        scenario.Validate()
     out = Path(args.out) / scenario.name
     print(f"simulating {scenario.name} ...", file=sys.stderr, flush=True)
     log = Simulate(scenario, progress=_Progress)
@@ -73,37 +84,57 @@ def _Diagram(args) -> int:
     return 0
 
 
+COMPARE_FLIGHTS = (
+    ("plan_I", None),
+    ("plan_II", None),
+    ("plan_i", None),
+    ("plan_ii", None),
+    ("plan_i", "mpc"),
+    ("plan_ii", "mpc"),
+)
+"""The flights of ``compare``: the four reference flights (the paper's policy, as pinned in
+their scenarios) and the two dynamic ones again with the mpc policy."""
+
+
 def _Compare(args) -> int:
     from eaplan_drake.plots import SaveFlightPlots
-    from eaplan_drake.simulation import REFERENCE_SCENARIOS, LoadNamedScenario, Simulate
+    from eaplan_drake.simulation import LoadNamedScenario, Simulate
 
     rows = []
-    for name in REFERENCE_SCENARIOS:
+    for name, policy in COMPARE_FLIGHTS:
         scenario = LoadNamedScenario(name)
-        print(f"simulating {name} ...", file=sys.stderr, flush=True)
+        label = name
+        if policy:
+            scenario.planner.policy = policy
+            scenario.planner.warmup = PlannerParams().warmup
+            label = scenario.name = f"{name}_{policy}"
+        print(f"simulating {label} ...", file=sys.stderr, flush=True)
         log = Simulate(scenario)
         if args.out:
-            log.Save(Path(args.out) / name)
-            SaveFlightPlots(log, scenario, Path(args.out) / name)
-        rows.append((name, log.summary, PAPER_RESULTS[name]))
+            log.Save(Path(args.out) / label)
+            SaveFlightPlots(log, scenario, Path(args.out) / label)
+        rows.append((label, log.summary, PAPER_RESULTS[name]))
     print(CompareTable(rows))
     return 0
 
 
 def CompareTable(rows) -> str:
-    """A Markdown table of (name, our summary, paper numbers) rows."""
+    """A Markdown table of (name, our summary, paper numbers) rows: quality and completion
+    first, the paper's metric P last."""
 
     def fmt(m):
         return "fail" if m is None else f"{m:.3f}"
 
     lines = [
-        "| flight | status | time [s] | paper time [s] | final SoC | P | paper P |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
+        "| flight | policy | status | quality | final margin | time [s] | paper time [s] | P | "
+        "paper P |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for name, s, paper in rows:
         lines.append(
-            f"| {name} | {s['status']} | {s['duration']:.1f} | {paper['duration']:.1f} | "
-            f"{s['final_soc']:.3f} | {fmt(s['metric'])} | {fmt(paper['metric'])} |"
+            f"| {name} | {s.get('policy', '')} | {s['status']} | {s['quality']:.3f} | "
+            f"{s['final_margin']:+.3f} | {s['duration']:.1f} | {paper['duration']:.1f} | "
+            f"{fmt(s['metric'])} | {fmt(paper['metric'])} |"
         )
     return "\n".join(lines)
 
@@ -117,11 +148,19 @@ def main(argv=None) -> int:
     p = sub.add_parser("simulate", help="fly one scenario; print the summary; write log and plots")
     p.add_argument("scenario", help="shipped name (plan_I, plan_II, plan_i, plan_ii) or YAML path")
     p.add_argument("--out", default="out", help="output directory (default: out/)")
+    p.add_argument(
+        "--policy",
+        choices=POLICIES,
+        default="",
+        help="fly with this planner policy instead of the scenario's (name gets a suffix)",
+    )
     p.set_defaults(run=_Simulate)
     p = sub.add_parser("diagram", help="write DOT and SVG of the closed loop and its systems")
     p.add_argument("--out", default="diagrams", help="output directory (default: diagrams/)")
     p.set_defaults(run=_Diagram)
-    p = sub.add_parser("compare", help="the four reference flights next to the paper's numbers")
+    p = sub.add_parser(
+        "compare", help="the four reference flights next to the paper's numbers, and i, ii with mpc"
+    )
     p.add_argument("--out", default="", help="also write each flight's log and plots here")
     p.set_defaults(run=_Compare)
     args = parser.parse_args(argv)

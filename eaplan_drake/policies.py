@@ -130,14 +130,7 @@ class MpcPolicy(PlannerPolicy):
             return PlannerDecision(
                 float(pb.grid[0]), low.copy(), memory, False, False, "invalid input"
             )
-        pb.SetState(
-            o.energy_coefficients,
-            o.mean_power_variance,
-            o.soc,
-            o.period,
-            o.remaining_time,
-            o.computation_parameters,
-        )
+        pb.SetObservation(o)
         low = pb.Lowest()
         if not low.feasible:
             nominal = pb.NominallyFeasible()
@@ -206,14 +199,7 @@ class GreedyPolicy(PlannerPolicy):
             return PlannerDecision(
                 float(pb.grid[0]), low.copy(), memory, False, False, "invalid input"
             )
-        pb.SetState(
-            o.energy_coefficients,
-            o.mean_power_variance,
-            o.soc,
-            o.period,
-            o.remaining_time,
-            o.computation_parameters,
-        )
+        pb.SetObservation(o)
         reserve = float(pb.battery.reserve_soc)
         j_now = int(np.clip(np.searchsorted(pb.grid, o.path_parameter + 1e-9) - 1, 0, None))
         # c2: the best candidate whose plan at the current c1 ends at or above the reserve.

@@ -11,9 +11,11 @@ import dataclasses as dc
 
 import numpy as np
 
+from eaplan_drake.coverage import PlanSource, StageTime
 from eaplan_drake.params import BatteryFault, Scenario
+from eaplan_drake.planner import PlannerObservation
 
-__all__ = ["DrawWorld", "WithPolicy", "WorldDistribution"]
+__all__ = ["DrawWorld", "RandomPlannerObservation", "WithPolicy", "WorldDistribution"]
 
 
 @dc.dataclass(frozen=True)
@@ -70,3 +72,42 @@ def WithPolicy(world: Scenario, policy: str, **planner) -> Scenario:
             raise ValueError(f"planner.{key}: unknown key")
         setattr(s.planner, key, value)
     return s.Validate()
+
+
+def RandomPlannerObservation(
+    rng: np.random.Generator,
+    plan: PlanSource,
+    path_parameter_grid,
+    computation_values,
+    *,
+    order: int = 3,
+    period: float = 46.0,
+    airspeed: float = 15.0,
+) -> PlannerObservation:
+    """A planner observation as in flight (for tests and benchmarks of the planner): ``plan`` at
+    a random c1 of the grid, a random stage and point on it, a random wind (0–12 m/s, any
+    direction) and the exact remaining times at the grid [s]; a random energy state (mean
+    26–40 W, harmonics σ = 1.5 W), Var(α̂0) 1e-5–1e-1 W², SoC 0.32–1 and a random current c2 out
+    of ``computation_values``."""
+    grid = np.asarray(path_parameter_grid, dtype=float)
+    c1 = float(rng.choice(grid))
+    stages = plan.Stages(c1)
+    stage = stages[int(rng.integers(0, len(stages)))]
+    speed, direction = rng.uniform(0.0, 12.0), rng.uniform(0.0, 2.0 * np.pi)
+    wind = speed * np.array([np.cos(direction), np.sin(direction)])
+    left = rng.uniform(0.0, 1.0) * StageTime(stage, airspeed, wind)
+    t_rem = np.array(
+        [left + plan.TimeAfter(stage.index, stage.anchor, c, airspeed, wind) for c in grid]
+    )
+    q = np.concatenate(([rng.uniform(26.0, 40.0)], rng.normal(0.0, 1.5, 2 * order)))
+    return PlannerObservation(
+        time=100.0,
+        energy_coefficients=q,
+        mean_power_variance=float(10 ** rng.uniform(-5, -1)),
+        soc=float(rng.uniform(0.32, 1.0)),
+        period=period,
+        coverage_remaining=0.5,
+        remaining_time=t_rem,
+        path_parameter=c1,
+        computation_parameters=np.array([float(rng.choice(computation_values))]),
+    )

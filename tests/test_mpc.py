@@ -10,11 +10,12 @@ from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 
 from eaplan_drake.battery import SocAfter
 from eaplan_drake.computation import LoadComputationTable
-from eaplan_drake.coverage import MakeCoveragePlan, StageTime
+from eaplan_drake.coverage import MakeCoveragePlan
 from eaplan_drake.mpc import MissionProblem
 from eaplan_drake.params import BatteryParams, CoverageParams, PlannerParams, VehicleParams
 from eaplan_drake.planner import PlannerObservation
 from eaplan_drake.policies import MakePolicy, MpcPolicy
+from eaplan_drake.worlds import RandomPlannerObservation
 
 ORDER = 3
 PERIOD = 46.0
@@ -62,22 +63,6 @@ def _RandomState(rng):
 @pytest.fixture(scope="module")
 def plan():
     return MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=0.0)
-
-
-def _FlightState(rng, plan):
-    """A planner state as in flight: the reference plan at a random c1, a random stage and point
-    on it, a random wind (0–12 m/s, any direction), and the exact remaining times at GRID."""
-    c1 = float(rng.choice(GRID))
-    stages = plan.Stages(c1)
-    stage = stages[int(rng.integers(0, len(stages)))]
-    speed, direction = rng.uniform(0.0, 12.0), rng.uniform(0.0, 2.0 * math.pi)
-    wind = speed * np.array([math.cos(direction), math.sin(direction)])
-    left = rng.uniform(0.0, 1.0) * StageTime(stage, 15.0, wind)
-    t_rem = np.array(
-        [left + plan.TimeAfter(stage.index, stage.anchor, c, 15.0, wind) for c in GRID]
-    )
-    q = np.concatenate(([rng.uniform(26.0, 40.0)], rng.normal(0.0, 1.5, 2 * ORDER)))
-    return q, 10 ** rng.uniform(-5, -1), rng.uniform(0.32, 1.0), t_rem, c1
 
 
 def test_soc_prediction_matches_the_rint_closed_form_for_a_constant_load(table):
@@ -190,13 +175,13 @@ def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan
     memory = policy.InitialMemory()
     agree = total = 0
     while total < 100:
-        q, var, soc, t_rem, c1 = _FlightState(rng, plan)
-        c2_now = float(rng.choice(table.parameter_grids[0]))
-        policy.problem.SetState(q, var, soc, PERIOD, t_rem, [c2_now])
-        if not policy.problem.Lowest().feasible:
+        o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
+        pb = policy.problem
+        pb.SetObservation(o)
+        if not pb.Lowest().feasible:
             continue
-        expected = policy.problem.BruteForce()
-        d = policy.Plan(_Observation(q, var, soc, t_rem, c2=c2_now, c1=c1), memory)
+        expected = pb.BruteForce()
+        d = policy.Plan(o, memory)
         memory = d.memory
         total += 1
         agree += d.path_parameter == expected.path_parameter and np.array_equal(
