@@ -67,14 +67,20 @@ def _Stop(system, port):
     return monitor
 
 
+GRID = np.linspace(-1000.0, 0.0, 5)
+
+
 def _FlyStandIn(plan, c1_source, start=(-100.0, 220.0), t_max=900.0):
     builder = DiagramBuilder()
-    seq = builder.AddSystem(StageSequencer(plan, initial_c1=0.0))
+    seq = builder.AddSystem(
+        StageSequencer(plan, initial_c1=0.0, airspeed=V_A, path_parameter_grid=GRID)
+    )
     follower = builder.AddSystem(KinematicFollower(V_A, start))
     builder.Connect(seq.GetOutputPort("path"), follower.get_input_port())
     builder.Connect(follower.get_output_port(), seq.GetInputPort("position"))
     builder.Connect(c1_source(builder).get_output_port(), seq.GetInputPort("path_parameters"))
-    logs = {n: LogVectorOutput(seq.GetOutputPort(n), builder, 0.05) for n in PORTS_OUT}
+    names = [*PORTS_OUT, "remaining_time"]
+    logs = {n: LogVectorOutput(seq.GetOutputPort(n), builder, 0.05) for n in names}
     diagram = builder.Build()
     sim = Simulator(diagram)
     sim.set_monitor(_Stop(seq, seq.GetOutputPort("mission_complete")))
@@ -118,6 +124,27 @@ def test_initial_outputs(plan):
     assert seq.GetOutputPort("coverage_remaining").Eval(ctx)[0] == 1.0
     assert seq.GetOutputPort("mission_complete").Eval(ctx)[0] == 0.0
     assert seq.PathParameter(ctx) == -1000.0
+
+
+def test_remaining_time_is_the_exact_coverage_time_at_each_grid_value(plan):
+    wind = (4.0, -2.0)
+    seq = StageSequencer(plan, initial_c1=0.0, airspeed=V_A, wind=wind, path_parameter_grid=GRID)
+    ctx = seq.CreateDefaultContext()
+    t_rem = seq.GetOutputPort("remaining_time").Eval(ctx)
+    # The active stage (the approach, generated at c1 = 0) is kept; the rest follows each c1.
+    first = plan.Stages(0.0)[0]
+    expected = [
+        StageTime(first, V_A, wind) + plan.TimeAfter(0, first.anchor, c1, V_A, wind)
+        for c1 in GRID
+    ]
+    np.testing.assert_allclose(t_rem, expected, rtol=1e-12)
+    assert t_rem[-1] == pytest.approx(plan.CoverageTime(0.0, V_A, wind), rel=1e-12)
+    assert np.all(np.diff(t_rem) >= 0.0)  # a staircase: never shorter at a larger c1
+    np.testing.assert_array_equal(seq.path_parameter_grid, GRID)
+    default = StageSequencer(plan, initial_c1=-500.0, airspeed=V_A)
+    assert default.GetOutputPort("remaining_time").size() == 1
+    with pytest.raises(ValueError, match="airspeed above the wind"):
+        StageSequencer(plan, airspeed=V_A, wind=(20.0, 0.0))
 
 
 def test_bad_constructor_arguments(plan):
@@ -257,6 +284,13 @@ def test_kinematic_flight_completes_with_the_geometric_period_and_time(plan):
     survey = t > 10.0
     fit = np.polyfit(t[survey], remaining[survey], 1)
     assert np.max(np.abs(np.polyval(fit, t[survey]) - remaining[survey])) < 0.01
+    # The exact remaining time at the flown c1 (= 0, the last grid value) counts down to 0 at
+    # one second per second (the stand-in flies the nominal path at V_A).
+    t_rem = logs["remaining_time"].data()[-1]
+    t = logs["remaining_time"].sample_times()
+    assert np.max(np.abs(t_rem[:-1] - (t_end - t[:-1]))) < 2.0
+    assert t_rem[-1] == 0.0
+    assert np.all(logs["remaining_time"].data()[0] <= logs["remaining_time"].data()[-1])
     assert wall < 10.0
 
 
