@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from eaplan_drake.params import POLICIES, PlannerParams, ScenarioError
+from eaplan_drake.params import POLICIES, OverrideFromAssignment, PlannerParams, ScenarioError
 
 __all__ = ["PAPER_RESULTS", "main"]
 
@@ -59,7 +59,7 @@ def _Simulate(args) -> int:
     from eaplan_drake.plots import SaveFlightPlots
     from eaplan_drake.simulation import LoadNamedScenario, Simulate
 
-    scenario = LoadNamedScenario(args.scenario)
+    scenario = LoadNamedScenario(args.scenario, [OverrideFromAssignment(a) for a in args.set])
     if args.policy:
         scenario.planner.policy = args.policy
         scenario.name = f"{scenario.name}_{args.policy}"
@@ -148,6 +148,13 @@ def main(argv=None) -> int:
     p = sub.add_parser("simulate", help="fly one scenario; print the summary; write log and plots")
     p.add_argument("scenario", help="shipped name (plan_I, plan_II, plan_i, plan_ii) or YAML path")
     p.add_argument("--out", default="out", help="output directory (default: out/)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY.PATH=VALUE",
+        help="override one scenario key (YAML value, validated like the file); repeatable",
+    )
     p.add_argument(
         "--policy",
         choices=POLICIES,

@@ -24,6 +24,7 @@ __all__ = [
     "EstimatorParams",
     "GuidanceParams",
     "LoadScenario",
+    "OverrideFromAssignment",
     "MotionPowerParams",
     "POLICIES",
     "PlannerParams",
@@ -597,14 +598,19 @@ def _check_type(hint, value, key: str) -> None:
         _check(isinstance(value, str), key, f"expected a string, got {value!r}")
 
 
-def LoadScenario(filename: str | Path | None = None, data: str | None = None) -> Scenario:
-    """Loads and validates a :class:`Scenario` from a YAML file or string.
+def LoadScenario(
+    filename: str | Path | None = None,
+    data: str | None = None,
+    *,
+    overrides: typing.Sequence[str] = (),
+) -> Scenario:
+    """Loads and validates a :class:`Scenario` from a YAML file or string, then layers the YAML
+    ``overrides`` on it in order (as ``yaml_load_typed(defaults=…)`` does: mappings merge key by
+    key, any other value, lists included, replaces; see :func:`OverrideFromAssignment`).
 
     Keys left out keep their reference defaults. Raises :class:`ScenarioError` (a ValueError)
     naming the key on an unknown key, a wrong type or a value out of range.
     """
-    from pydrake.common.yaml import yaml_load_data, yaml_load_typed
-
     if (filename is None) == (data is None):
         raise ScenarioError("LoadScenario: give exactly one of filename= or data=")
     if filename is not None:
@@ -612,19 +618,53 @@ def LoadScenario(filename: str | Path | None = None, data: str | None = None) ->
         if not path.is_file():
             raise ScenarioError(f"{path}: no such scenario file")
         data = path.read_text()
+    scenario = _LoadLayer(data, Scenario(), "")
+    for i, text in enumerate(overrides):
+        if not isinstance(text, str):
+            raise ScenarioError(f"overrides[{i}]: expected YAML text, got {type(text).__name__}")
+        scenario = _LoadLayer(text, scenario, f"override {i + 1}: ")
+    return scenario.Validate()
+
+
+def _LoadLayer(data: str, defaults: Scenario, where: str) -> Scenario:
+    """``defaults`` with the YAML ``data`` loaded over it (keys checked first)."""
+    from pydrake.common.yaml import yaml_load_data, yaml_load_typed
+
     try:
         raw = yaml_load_data(data=data)
     except Exception as e:  # the YAML parser's own errors
-        raise ScenarioError(f"invalid YAML: {e}") from None
+        raise ScenarioError(f"{where}invalid YAML: {e}") from None
     if raw is None:
         raw = {}
     if not isinstance(raw, dict):
-        raise ScenarioError("the scenario must be a mapping of keys at the top level")
+        raise ScenarioError(f"{where}the scenario must be a mapping of keys at the top level")
     _check_keys(Scenario, raw, "")
     if not raw:
-        return Scenario().Validate()
+        return defaults
     try:
-        scenario = yaml_load_typed(schema=Scenario, data=data)
+        return yaml_load_typed(schema=Scenario, data=data, defaults=defaults)
     except (RuntimeError, ValueError, TypeError) as e:
-        raise ScenarioError(f"wrong type: {e}") from None
-    return scenario.Validate()
+        raise ScenarioError(f"{where}wrong type: {e}") from None
+
+
+def OverrideFromAssignment(assignment: str) -> str:
+    """The YAML layer of one ``key.path=value`` assignment (the CLI's ``--set``), e.g.
+    ``battery.capacity=2.5`` or ``battery.faults=[{time: 90, soc_drop: 0.1}]``; the value is
+    YAML. Raises :class:`ScenarioError` for a malformed assignment or an unknown key."""
+    key, sep, value = assignment.partition("=")
+    parts = key.strip().split(".")
+    if not sep or not all(p.isidentifier() for p in parts):
+        raise ScenarioError(
+            f"--set {assignment!r}: expected KEY.PATH=VALUE (e.g. battery.capacity=2.5)"
+        )
+    schema = Scenario
+    for depth, name in enumerate(parts):
+        hints = typing.get_type_hints(schema) if dc.is_dataclass(schema) else {}
+        if name not in hints:
+            full = ".".join(parts[: depth + 1])
+            known = ", ".join(sorted(hints)) if hints else "none: not a mapping"
+            raise ScenarioError(f"{full}: unknown key (known keys here: {known})")
+        schema = hints[name]
+    lines = [f"{'  ' * d}{name}:" for d, name in enumerate(parts)]
+    lines[-1] += " " + (value.strip() or "''")
+    return "\n".join(lines) + "\n"

@@ -455,9 +455,10 @@ class Planner:
         u = (grid - self.lower) / self.span
         score = np.sum((1.0 - u) ** 2, axis=1)
         order_idx = np.lexsort((-np.sum(u, axis=1), score))
-        self._candidates = grid[order_idx]
-        self._candidate_power = np.array([table.power(c) for c in self._candidates])
-        self._lowest_candidate = int(np.flatnonzero(np.all(self._candidates == self.lower, 1))[0])
+        self.candidates = grid[order_idx]
+        """Grid points of c2, best objective first (ties: larger parameters)."""
+        self.candidate_power = np.array([table.power(c) for c in self.candidates])
+        self._lowest_candidate = int(np.flatnonzero(np.all(self.candidates == self.lower, 1))[0])
         # Rollout length: t_b is only needed up to the longest remaining coverage time.
         self._num_half = 2 * max(N, math.ceil(self.coverage_time.times[1] / h) + 1) + 1
         self._rows_period = None
@@ -468,7 +469,8 @@ class Planner:
         """Initial guess at the lowest parameters and zero slack."""
         return np.zeros(self.num_variables)
 
-    def _Rows(self, period: float) -> np.ndarray:
+    def ResponseRows(self, period: float) -> np.ndarray:
+        """[C; C A_h; …] at the half steps h_T/2 of the rollout for the period T [s] (cached)."""
         if self._rows_period != period:
             self._rows = FreeResponseMatrix(self.order, period, 0.5 * self.step, self._num_half)
             self._rows_period = period
@@ -480,7 +482,9 @@ class Planner:
         bdot = np.asarray(SocDerivative(y, self.battery))
         return soc + self.step * (bdot[0] + 4.0 * bdot[1] + bdot[2]) / 6.0
 
-    def _Feasible(self, f3, dg, soc) -> tuple[np.ndarray, np.ndarray]:
+    def StepFeasible(self, f3, dg, soc) -> tuple[np.ndarray, np.ndarray]:
+        """(y ≤ b·Q_c·V at the start and the end of one step, SoC at its end) for the load
+        offsets ``dg`` [W] (array) given the free response at the step's start, middle, end."""
         dg = np.atleast_1d(dg)
         soc_end = self._StepSoc(f3, dg, soc)
         ok = (f3[0] + dg <= self._budget_per_soc * soc + _FEASIBILITY_TOL) & (
@@ -491,10 +495,10 @@ class Planner:
     def _MapStep(self, f3, relaxed_c, g_prev, soc):
         """Admissible c for one step: (c, feasible, SoC at the end of the step)."""
         if self.integer:
-            ok, soc_end = self._Feasible(f3, self._candidate_power - g_prev, soc)
+            ok, soc_end = self.StepFeasible(f3, self.candidate_power - g_prev, soc)
             hits = np.flatnonzero(ok)
             i = int(hits[0]) if hits.size else self._lowest_candidate  # none: the lowest
-            return self._candidates[i].copy(), bool(hits.size), float(soc_end[i])
+            return self.candidates[i].copy(), bool(hits.size), float(soc_end[i])
         # Continuous: the largest feasible point on the path c̲ → relaxed → c̄ (λ = 0, 1, 2).
         c_mid = self.table.clamp(relaxed_c)
 
@@ -504,7 +508,7 @@ class Planner:
             return c_mid + (lam - 1.0) * (self.upper - c_mid)
 
         def check(lam):
-            return self._Feasible(f3, self.table.power(at(lam)) - g_prev, soc)
+            return self.StepFeasible(f3, self.table.power(at(lam)) - g_prev, soc)
 
         if check(2.0)[0][0]:
             lo = 2.0
@@ -594,7 +598,7 @@ class Planner:
         if not np.all(np.isfinite(inputs)) or period <= 0.0:
             return self.Fallback(path_parameter, "invalid input (non-finite or period <= 0)")
         N, sigma = self.horizon, self.table.num_parameters
-        f_half = self._Rows(float(period)) @ q
+        f_half = self.ResponseRows(float(period)) @ q
         prog = self.program
         prog.SetData(f_half[: 2 * N + 1], soc, c_prev)
         x0 = self.LowestWarmStart() if warm_start is None else np.asarray(warm_start, float)

@@ -235,16 +235,16 @@ class GreedyAuthorsPolicy(PlannerPolicy):
                 p.coverage_time.bounds[0], p.lower.copy(), memory, False, False, "invalid input"
             )
         N = p.horizon
-        f_half = p._Rows(float(o.period)) @ o.energy_coefficients
+        f_half = p.ResponseRows(float(o.period)) @ o.energy_coefficients
         g_prev = p.table.power(o.computation_parameters)
         # c2: maximise Σ y² over the horizon subject to y ≤ b·Q_c·V at every step end.
         best, best_score, feasible = None, -math.inf, False
-        for c, g in zip(p._candidates, p._candidate_power, strict=True):
+        for c, g in zip(p.candidates, p.candidate_power, strict=True):
             soc, ok = o.soc, True
             score = 0.0
             for k in range(N):
                 f3 = f_half[2 * k : 2 * k + 3]
-                good, soc_end = p._Feasible(f3, g - g_prev, soc)
+                good, soc_end = p.StepFeasible(f3, g - g_prev, soc)
                 ok = ok and bool(good[0])
                 soc = float(soc_end[0])
                 score += float(f3[2] + g - g_prev) ** 2

@@ -19,6 +19,7 @@ import json
 import os
 import tempfile
 import time
+import typing
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
@@ -52,19 +53,21 @@ STATUS_BROWNOUT = "brownout"
 STATUS_TIME_LIMIT = "time_limit"
 
 
-def LoadNamedScenario(name_or_path: str | Path) -> Scenario:
+def LoadNamedScenario(name_or_path: str | Path, overrides: typing.Sequence[str] = ()) -> Scenario:
     """A shipped scenario by name (``plan_I``, ``plan_II``, ``plan_i``, ``plan_ii``) or a YAML
-    path. Raises :class:`ScenarioError` with one clear line on any problem."""
+    path, with the YAML ``overrides`` layered on it in order (see
+    :func:`~eaplan_drake.params.LoadScenario`). Raises :class:`ScenarioError` with one clear line
+    on any problem."""
     path = Path(name_or_path)
     if path.suffix in (".yaml", ".yml") or path.exists():
-        return LoadScenario(filename=path)
+        return LoadScenario(filename=path, overrides=overrides)
     shipped = resources.files("eaplan_drake") / "scenarios" / f"{name_or_path}.yaml"
     if not shipped.is_file():
         raise ScenarioError(
             f"{name_or_path}: not a YAML file nor a shipped scenario "
             f"(shipped: {', '.join(REFERENCE_SCENARIOS)})"
         )
-    return LoadScenario(data=shipped.read_text())
+    return LoadScenario(data=shipped.read_text(), overrides=overrides)
 
 
 @dc.dataclass

@@ -38,7 +38,8 @@ class WorldDistribution:
 
 def DrawWorld(base: Scenario, seed: int, distribution: WorldDistribution | None = None) -> Scenario:
     """A copy of ``base`` with the world drawn from ``seed`` (an integer >= 0); its name is
-    ``<base name>_w<seed>``. The policy and its parameters are the base's."""
+    ``<base name>_w<seed>``. The policy and its parameters are the base's; the estimator's
+    measurement variance R is set to the drawn sensor noise (the sensor's data sheet)."""
     if isinstance(seed, bool) or int(seed) != seed or seed < 0:
         raise ValueError(f"seed: must be an integer >= 0, got {seed!r}")
     d = WorldDistribution() if distribution is None else distribution

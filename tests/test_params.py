@@ -80,3 +80,44 @@ def test_invalid_yaml_and_missing_file(tmp_path):
         LoadScenario(filename=tmp_path / "missing.yaml")
     with pytest.raises(ScenarioError, match="exactly one"):
         LoadScenario()
+
+
+def test_overrides_layer_in_order_and_lists_replace():
+    from eaplan_drake.params import OverrideFromAssignment as Set
+
+    base = "name: base\nbattery: {capacity: 3.0, faults: [{time: 10, soc_drop: 0.05}]}"
+    s = LoadScenario(
+        data=base,
+        overrides=[
+            "battery: {reserve_soc: 0.25}\nwind: {speed: 2.0}",
+            Set("wind.speed=7"),
+            Set("battery.faults=[{time: 90, soc_drop: 0.1}]"),
+            Set("planner.policy=greedy"),
+        ],
+    )
+    assert s.name == "base" and s.battery.capacity == 3.0 and s.battery.reserve_soc == 0.25
+    assert s.wind.speed == 7.0  # the later layer wins
+    assert [(f.time, f.soc_drop) for f in s.battery.faults] == [(90.0, 0.1)]
+    assert s.planner.policy == "greedy"
+    assert Set("planner.initial_path_parameters=[-500]") == (
+        "planner:\n  initial_path_parameters: [-500]\n"
+    )
+
+
+@pytest.mark.parametrize(
+    "assignment, message",
+    [
+        ("battery.capcity=3", "battery.capcity: unknown key"),
+        ("battery.capacity=abc", "battery.capacity: expected a number"),
+        ("battery.capacity=-1", "battery.capacity: must be > 0"),
+        ("battery", "--set 'battery': expected KEY.PATH=VALUE"),
+        ("wind.speed.x=1", "wind.speed.x: unknown key"),
+        ("planner.policy=best", "planner.policy: must be one of"),
+    ],
+)
+def test_bad_override_is_one_line_naming_the_key(assignment, message):
+    from eaplan_drake.params import OverrideFromAssignment
+
+    with pytest.raises(ScenarioError) as e:
+        LoadScenario(data="", overrides=[OverrideFromAssignment(assignment)])
+    assert str(e.value).startswith(message) and "\n" not in str(e.value), str(e.value)

@@ -134,8 +134,7 @@ def test_remaining_time_is_the_exact_coverage_time_at_each_grid_value(plan):
     # The active stage (the approach, generated at c1 = 0) is kept; the rest follows each c1.
     first = plan.Stages(0.0)[0]
     expected = [
-        StageTime(first, V_A, wind) + plan.TimeAfter(0, first.anchor, c1, V_A, wind)
-        for c1 in GRID
+        StageTime(first, V_A, wind) + plan.TimeAfter(0, first.anchor, c1, V_A, wind) for c1 in GRID
     ]
     np.testing.assert_allclose(t_rem, expected, rtol=1e-12)
     assert t_rem[-1] == pytest.approx(plan.CoverageTime(0.0, V_A, wind), rel=1e-12)
