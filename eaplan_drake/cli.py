@@ -139,6 +139,53 @@ def CompareTable(rows) -> str:
     return "\n".join(lines)
 
 
+def _StudyPath(name_or_path: str):
+    from importlib import resources
+
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        return path
+    shipped = resources.files("eaplan_drake") / "studies" / f"{name_or_path}.yaml"
+    if not shipped.is_file():
+        raise ScenarioError(f"{name_or_path}: not a YAML file nor a shipped study")
+    return Path(str(shipped))
+
+
+def _Sweep(args) -> int:
+    try:
+        import joblib  # noqa: F401
+    except ImportError:
+        raise ScenarioError("sweep needs the [sweep] extra: pip install -e '.[sweep]'") from None
+    from eaplan_drake.sweep import LoadStudy, RunStudy, StudyReport
+
+    study, directory = LoadStudy(_StudyPath(args.study))
+    if args.backend == "dask" and not args.scheduler:
+        raise ScenarioError("--backend dask needs --scheduler ADDRESS (tcp://host:8786)")
+    rows = RunStudy(
+        study,
+        args.out,
+        directory=directory,
+        n_jobs=args.jobs,
+        backend=args.backend,
+        scheduler=args.scheduler or None,
+        save_logs=args.save_logs,
+    )
+    report = StudyReport(args.out)
+    errors = sum(r["status"] == "error" for r in rows)
+    print(f"{len(rows)} flights ({errors} errors); report in {report}")
+    print(report.read_text().split("\n\n")[1])
+    return 0
+
+
+def _StudyReport(args) -> int:
+    from eaplan_drake.sweep import StudyReport
+
+    report = StudyReport(args.directory)
+    print(report.read_text().split("\n\n")[1])
+    print(f"report in {report}")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="eaplan-drake",
@@ -170,6 +217,17 @@ def main(argv=None) -> int:
     )
     p.add_argument("--out", default="", help="also write each flight's log and plots here")
     p.set_defaults(run=_Compare)
+    p = sub.add_parser("sweep", help="fly a study (sweep / Monte Carlo) and write its report")
+    p.add_argument("study", help="shipped study (robustness, battery_size) or YAML path")
+    p.add_argument("--out", required=True, help="output directory (rows.jsonl, report.md)")
+    p.add_argument("--jobs", type=int, default=1, help="parallel workers (default 1; -1 = all)")
+    p.add_argument("--backend", choices=("loky", "dask"), default="loky")
+    p.add_argument("--scheduler", default="", help="Dask scheduler address (backend dask)")
+    p.add_argument("--save-logs", action="store_true", help="also save every flight's log")
+    p.set_defaults(run=_Sweep)
+    p = sub.add_parser("study-report", help="the report of a study directory")
+    p.add_argument("directory")
+    p.set_defaults(run=_StudyReport)
     args = parser.parse_args(argv)
     try:
         return args.run(args)

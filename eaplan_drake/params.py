@@ -8,6 +8,7 @@ Load with :func:`LoadScenario` (``filename=`` or ``data=``). A misspelt key, a w
 value outside its physical range raises :class:`ScenarioError` whose message names the key.
 """
 
+import copy
 import dataclasses as dc
 import math
 import typing
@@ -23,6 +24,7 @@ __all__ = [
     "EnergyModelParams",
     "EstimatorParams",
     "GuidanceParams",
+    "LayerScenario",
     "LoadScenario",
     "OverrideFromAssignment",
     "MotionPowerParams",
@@ -618,7 +620,12 @@ def LoadScenario(
         if not path.is_file():
             raise ScenarioError(f"{path}: no such scenario file")
         data = path.read_text()
-    scenario = _LoadLayer(data, Scenario(), "")
+    return LayerScenario(_LoadLayer(data, Scenario(), ""), overrides)
+
+
+def LayerScenario(scenario: Scenario, overrides: typing.Sequence[str]) -> Scenario:
+    """A copy of ``scenario`` with the YAML ``overrides`` loaded over it in order, validated."""
+    scenario = copy.deepcopy(scenario)
     for i, text in enumerate(overrides):
         if not isinstance(text, str):
             raise ScenarioError(f"overrides[{i}]: expected YAML text, got {type(text).__name__}")

@@ -1,0 +1,165 @@
+"""Studies (eaplan_drake.sweep): reproducible flights, serial = parallel, resume after a kill,
+error rows, Dask, the report."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+joblib = pytest.importorskip("joblib", reason="the [sweep] extra (joblib) is not installed")
+
+from eaplan_drake.params import ScenarioError  # noqa: E402
+from eaplan_drake.sweep import (  # noqa: E402
+    FlyRow,
+    LoadStudy,
+    RunStudy,
+    StudyFlights,
+    StudyReport,
+    WilsonInterval,
+)
+
+TINY = textwrap.dedent(
+    """\
+    name: tiny
+    base: plan_i
+    set: {simulation.time_limit: 12.0, planner.warmup: 4.0}
+    grid: {wind.speed: [2.0, 6.0]}
+    uniform: {wind.direction_deg: [0.0, 360.0]}
+    choice: {sensor.noise_std: [0.2, 1.0]}
+    faults: {count: [0, 2], time: [0.0, 12.0], soc_drop: [0.0, 0.1]}
+    draws: 2
+    seed: 7
+    policies: [mpc, greedy]
+    """
+)
+
+
+@pytest.fixture
+def study(tmp_path):
+    path = tmp_path / "tiny.yaml"
+    path.write_text(TINY)
+    return LoadStudy(path)
+
+
+def _Stable(rows):
+    return sorted(
+        ({k: v for k, v in r.items() if k != "wall_time"} for r in rows), key=lambda r: r["id"]
+    )
+
+
+def test_flights_are_reproducible_and_vary_what_the_study_says(study):
+    st, d = study
+    flights = StudyFlights(st, d)
+    assert len(flights) == 2 * 2 * 3  # grid × draws × (lowest + 2 policies)
+    again = StudyFlights(st, d)
+    assert [k for k, _ in flights] == [k for k, _ in again]
+    keys, s = flights[0]
+    assert keys["policy"] == "lowest" and s.planner.policy == "static"
+    assert s.planner.initial_path_parameters == [-1000.0]
+    assert s.computation.initial_parameters == [2.0]
+    assert {k["wind.speed"] for k, _ in flights} == {2.0, 6.0}
+    assert all(s.simulation.time_limit == 12.0 for _, s in flights)
+    world0 = [s for k, s in flights if k["world"] == 0]
+    assert len({s.sensor.seed for s in world0}) == 1  # one world, every policy
+    # Common random numbers: draw d is the same at every grid point.
+    assert len({s.sensor.seed for _, s in flights}) == 2
+
+
+def test_serial_and_parallel_give_identical_rows(study, tmp_path):
+    st, d = study
+    serial = RunStudy(st, tmp_path / "serial", directory=d, n_jobs=1, progress=False)
+    parallel = RunStudy(st, tmp_path / "parallel", directory=d, n_jobs=2, progress=False)
+    assert len(serial) == 12 and all(r["error"] is None for r in serial)
+    assert _Stable(serial) == _Stable(parallel)
+    # Re-running the finished study flies nothing (no row added) and returns the same rows.
+    lines = (tmp_path / "serial" / "rows.jsonl").read_text().splitlines()
+    again = RunStudy(st, tmp_path / "serial", directory=d, progress=False)
+    assert _Stable(again) == _Stable(serial)
+    assert (tmp_path / "serial" / "rows.jsonl").read_text().splitlines() == lines
+    report = StudyReport(tmp_path / "serial")
+    text = report.read_text()
+    assert "| mpc | 4 |" in text and "| lowest | 4 |" in text
+    for name in ("quality.png", "completion.png", "margin.png"):
+        assert (tmp_path / "serial" / name).stat().st_size > 1000
+
+
+def test_a_killed_study_resumes_to_the_same_rows(study, tmp_path):
+    st, d = study
+    reference = RunStudy(st, tmp_path / "ref", directory=d, n_jobs=1, progress=False)
+    out = tmp_path / "killed"
+    code = (
+        "from eaplan_drake.sweep import LoadStudy, RunStudy\n"
+        f"st, d = LoadStudy({str(d / 'tiny.yaml')!r})\n"
+        f"RunStudy(st, {str(out)!r}, directory=d, n_jobs=1, progress=False)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", code], start_new_session=True)
+    rows = out / "rows.jsonl"
+    deadline = time.monotonic() + 120.0
+    while time.monotonic() < deadline:  # kill once a few rows are written
+        if rows.is_file() and len(rows.read_text().splitlines()) >= 3:
+            break
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    partial = [json.loads(x) for x in rows.read_text().splitlines() if x.strip().endswith("}")]
+    assert 3 <= len(partial) < 12
+    resumed = RunStudy(st, out, directory=d, n_jobs=1, progress=False)
+    assert _Stable(resumed) == _Stable(reference)
+
+
+def test_a_flight_that_raises_is_an_error_row(study):
+    st, d = study
+    keys, scenario = StudyFlights(st, d)[1]
+    scenario.computation.table = "no_such_table"
+    row = FlyRow(keys, scenario)
+    assert row["status"] == "error" and not row["completed"]
+    assert "no_such_table" in row["error"]
+
+
+def test_dask_local_cluster_runs_the_study(study, tmp_path):
+    distributed = pytest.importorskip("distributed", reason="the [sweep] extra (dask) is missing")
+    st, d = study
+    st.grid = {"wind.speed": [3.0]}
+    st.draws = 1
+    with (
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        rows = RunStudy(
+            st, tmp_path / "dask", directory=d, backend="dask", scheduler=client, progress=False
+        )
+    serial = RunStudy(st, tmp_path / "serial", directory=d, progress=False)
+    assert len(rows) == 3 and _Stable(rows) == _Stable(serial)
+
+
+def test_bad_study_files_are_one_line(tmp_path):
+    for text, message in (
+        ("draws: 0", "draws"),
+        ("grdi: {}", "grdi: unknown key"),
+        ("uniform: {wind.speed: [1]}", "uniform.wind.speed"),
+        ("a: [", "invalid YAML"),
+    ):
+        path = tmp_path / "bad.yaml"
+        path.write_text(text)
+        with pytest.raises(ScenarioError) as e:
+            LoadStudy(path)
+        assert message in str(e.value) and "\n" not in str(e.value)
+    path.write_text("set: {battery.capcity: 2}")
+    st, d = LoadStudy(path)
+    with pytest.raises(ScenarioError, match="battery.capcity: unknown key"):
+        StudyFlights(st, d)
+
+
+def test_wilson_interval():
+    assert WilsonInterval(0, 0) == (0.0, 1.0)
+    lo, hi = WilsonInterval(0, 10)
+    assert lo == 0.0 and hi == pytest.approx(0.2775, abs=1e-4)
+    lo, hi = WilsonInterval(10, 10)
+    assert lo == pytest.approx(0.7225, abs=1e-4) and hi == 1.0
+    lo, hi = WilsonInterval(50, 100)
+    assert lo == pytest.approx(0.4038, abs=1e-4) and hi == pytest.approx(0.5962, abs=1e-4)
