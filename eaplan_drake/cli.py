@@ -100,20 +100,29 @@ def _Compare(args) -> int:
     from eaplan_drake.plots import SaveFlightPlots
     from eaplan_drake.simulation import LoadNamedScenario, Simulate
 
-    rows = []
+    scenarios = []
     for name, policy in COMPARE_FLIGHTS:
         scenario = LoadNamedScenario(name)
-        label = name
         if policy:
             scenario.planner.policy = policy
             scenario.planner.warmup = PlannerParams().warmup
-            label = scenario.name = f"{name}_{policy}"
-        print(f"simulating {label} ...", file=sys.stderr, flush=True)
-        log = Simulate(scenario)
+            scenario.name = f"{name}_{policy}"
+        scenarios.append((name, scenario))
+    print(f"simulating {len(scenarios)} flights ...", file=sys.stderr, flush=True)
+    if args.jobs != 1:  # the studies' machinery: joblib's loky workers ([sweep] extra)
+        try:
+            import joblib
+        except ImportError:
+            raise ScenarioError("--jobs needs the [sweep] extra (joblib)") from None
+        logs = joblib.Parallel(n_jobs=args.jobs)(joblib.delayed(Simulate)(s) for _, s in scenarios)
+    else:
+        logs = [Simulate(s) for _, s in scenarios]
+    rows = []
+    for (name, scenario), log in zip(scenarios, logs, strict=True):
         if args.out:
-            log.Save(Path(args.out) / label)
-            SaveFlightPlots(log, scenario, Path(args.out) / label)
-        rows.append((label, log.summary, PAPER_RESULTS[name]))
+            log.Save(Path(args.out) / scenario.name)
+            SaveFlightPlots(log, scenario, Path(args.out) / scenario.name)
+        rows.append((scenario.name, log.summary, PAPER_RESULTS[name]))
     print(CompareTable(rows))
     return 0
 
@@ -216,6 +225,7 @@ def main(argv=None) -> int:
         "compare", help="the four reference flights next to the paper's numbers, and i, ii with mpc"
     )
     p.add_argument("--out", default="", help="also write each flight's log and plots here")
+    p.add_argument("--jobs", type=int, default=1, help="parallel flights ([sweep] extra)")
     p.set_defaults(run=_Compare)
     p = sub.add_parser("sweep", help="fly a study (sweep / Monte Carlo) and write its report")
     p.add_argument("study", help="shipped study (robustness, battery_size) or YAML path")
