@@ -70,20 +70,6 @@ def _Fly(task):
     return row
 
 
-def _Lowest(world):
-    from eaplan_drake.computation import LoadComputationTable
-    from eaplan_drake.worlds import WithPolicy
-
-    table = LoadComputationTable(world.computation.table)
-    s = WithPolicy(
-        world,
-        "static",
-        initial_path_parameters=[float(world.planner.path_parameter_bounds[0])],
-    )
-    s.computation.initial_parameters = [float(v) for v in table.lower]
-    return s
-
-
 def _Run(tasks, jobs):
     rows = []
     with cf.ProcessPoolExecutor(max_workers=jobs) as pool:
@@ -216,7 +202,7 @@ def main(argv=None) -> int:
     policies = [p for p in args.policies.split(",") if p]
 
     from eaplan_drake.params import POLICIES, Scenario
-    from eaplan_drake.worlds import DrawWorld, WithPolicy
+    from eaplan_drake.worlds import DrawWorld, LowestPlan, WithPolicy
 
     for p in policies:
         if p not in POLICIES or p == "hindsight":
@@ -230,7 +216,7 @@ def main(argv=None) -> int:
         setattr(base.planner, key, type(getattr(base.planner, key))(value))
     seeds = range(args.first_seed, args.first_seed + args.worlds)
     worlds = {seed: DrawWorld(base, seed) for seed in seeds}
-    tasks = [(s, "lowest", _Lowest(w)) for s, w in worlds.items()]
+    tasks = [(s, "lowest", LowestPlan(w)) for s, w in worlds.items()]
     # The paper's policies wait for two periods of energy data, as published.
     warmup = {"paper": 80.0, "greedy_authors": 80.0}
     tasks += [

@@ -27,7 +27,6 @@ On a cluster: start a scheduler and workers with this package installed (e.g. wi
 pass ``--backend dask --scheduler tcp://host:8786`` (or the ``Client`` in Python).
 """
 
-import copy
 import dataclasses as dc
 import hashlib
 import itertools
@@ -153,8 +152,8 @@ def _Value(v) -> str:
 def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, Scenario]]:
     """Every flight of the study as (row keys, scenario): row keys are ``world`` (index),
     ``policy``, ``draw`` and the varied values by key path. Scenarios are validated."""
-    from eaplan_drake.computation import LoadComputationTable
     from eaplan_drake.simulation import LoadNamedScenario
+    from eaplan_drake.worlds import LowestPlan, WithPolicy
 
     base_path = Path(directory) / study.base
     base_name = str(base_path) if base_path.suffix in (".yaml", ".yml") else study.base
@@ -195,17 +194,7 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
             s.sensor.seed = int(rng.integers(0, 2**31 - 1))
             s.name = f"{study.name}_w{world}"
             for policy in ([LOWEST] if study.lowest_reference else []) + list(study.policies):
-                flight = copy.deepcopy(s)
-                if policy == LOWEST:
-                    table = LoadComputationTable(flight.computation.table)
-                    flight.planner.policy = "static"
-                    flight.planner.initial_path_parameters = [
-                        float(flight.planner.path_parameter_bounds[0])
-                    ]
-                    flight.computation.initial_parameters = [float(v) for v in table.lower]
-                else:
-                    flight.planner.policy = policy
-                flight.Validate()
+                flight = LowestPlan(s) if policy == LOWEST else WithPolicy(s, policy)
                 keys = {"world": world, "draw": draw, "policy": policy, **varied}
                 flights.append((keys, flight))
             world += 1

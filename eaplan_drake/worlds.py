@@ -15,7 +15,13 @@ from eaplan_drake.coverage import PlanSource, StageTime
 from eaplan_drake.params import BatteryFault, Scenario
 from eaplan_drake.planner import PlannerObservation
 
-__all__ = ["DrawWorld", "RandomPlannerObservation", "WithPolicy", "WorldDistribution"]
+__all__ = [
+    "DrawWorld",
+    "LowestPlan",
+    "RandomPlannerObservation",
+    "WithPolicy",
+    "WorldDistribution",
+]
 
 
 @dc.dataclass(frozen=True)
@@ -72,6 +78,19 @@ def WithPolicy(world: Scenario, policy: str, **planner) -> Scenario:
         if not hasattr(s.planner, key):
             raise ValueError(f"planner.{key}: unknown key")
         setattr(s.planner, key, value)
+    return s.Validate()
+
+
+def LowestPlan(world: Scenario) -> Scenario:
+    """A copy of ``world`` flown with the static lowest-quality plan (c1 = c̲1, c2 = the table's
+    lowest grid point): the reference of what can be finished on that world."""
+    from eaplan_drake.computation import LoadComputationTable
+
+    table = LoadComputationTable(world.computation.table)
+    s = WithPolicy(
+        world, "static", initial_path_parameters=[float(world.planner.path_parameter_bounds[0])]
+    )
+    s.computation.initial_parameters = [float(v) for v in table.lower]
     return s.Validate()
 
 
