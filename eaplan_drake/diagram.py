@@ -18,6 +18,8 @@ plans I and II) is the same diagram with ``planner.policy: static``. Every syste
 and each logged signal has a ``VectorLogSink`` named ``log_<signal>`` (see :data:`LOGGED_SIGNALS`).
 """
 
+import dataclasses as dc
+
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
@@ -140,7 +142,9 @@ def MakeEaplanDiagram(
         ),
     )
     computation = builder.AddNamedSystem("computation", ComputationLoad(table))
-    sensor = builder.AddNamedSystem("sensor", PowerSensor(scenario.sensor))
+    sensor = builder.AddNamedSystem(
+        "sensor", PowerSensor(dc.replace(scenario.sensor, seed=scenario.SensorSeed()))
+    )
     estimator = builder.AddNamedSystem(
         "estimator",
         EnergyEstimator(

@@ -515,6 +515,10 @@ class Scenario:
 
     name: str = "reference"
     description: str = ""
+    random_seed: int = -1
+    """Seed every random stream of the flight derives from (today: the sensor's noise and
+    dropouts), so that a Monte Carlo study varies one key; −1 (default) keeps ``sensor.seed`` as
+    given. With a seed s ≥ 0 the sensor uses :meth:`SensorSeed` = a hash of (s, "sensor")."""
     vehicle: VehicleParams = dc.field(default_factory=VehicleParams)
     wind: WindParams = dc.field(default_factory=WindParams)
     coverage: CoverageParams = dc.field(default_factory=CoverageParams)
@@ -527,8 +531,21 @@ class Scenario:
     planner: PlannerParams = dc.field(default_factory=PlannerParams)
     simulation: SimulationParams = dc.field(default_factory=SimulationParams)
 
+    def SensorSeed(self) -> int:
+        """The seed the power sensor uses: ``sensor.seed``, or derived from ``random_seed``."""
+        if self.random_seed < 0:
+            return int(self.sensor.seed)
+        return int(np.random.SeedSequence([int(self.random_seed), 1]).generate_state(1)[0])
+
     def Validate(self) -> "Scenario":
         """Checks every field; raises ScenarioError naming the first bad key. Returns self."""
+        _check(
+            isinstance(self.random_seed, int)
+            and not isinstance(self.random_seed, bool)
+            and self.random_seed >= -1,
+            "random_seed",
+            f"must be an integer >= -1, got {self.random_seed!r}",
+        )
         for f in dc.fields(self):
             value = getattr(self, f.name)
             if hasattr(value, "Validate"):

@@ -96,7 +96,7 @@ class Study:
     draws: int = 1
     """Number of random draws per grid point."""
     seed: int = 0
-    """Study seed; the sensor seed of each draw derives from it."""
+    """Study seed; each draw's ``random_seed`` (hence its sensor noise) derives from it."""
     policies: list[str] = dc.field(default_factory=lambda: ["mpc"])
     """Planner policies flown on every world."""
     lowest_reference: bool = True
@@ -191,7 +191,7 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
                 ]
                 varied["faults.count"] = n
                 varied["faults.total_drop"] = float(np.sum(drops))
-            s.sensor.seed = int(rng.integers(0, 2**31 - 1))
+            s.random_seed = int(rng.integers(0, 2**31 - 1))
             s.name = f"{study.name}_w{world}"
             for policy in ([LOWEST] if study.lowest_reference else []) + list(study.policies):
                 flight = LowestPlan(s) if policy == LOWEST else WithPolicy(s, policy)

@@ -121,3 +121,13 @@ def test_bad_override_is_one_line_naming_the_key(assignment, message):
     with pytest.raises(ScenarioError) as e:
         LoadScenario(data="", overrides=[OverrideFromAssignment(assignment)])
     assert str(e.value).startswith(message) and "\n" not in str(e.value), str(e.value)
+
+
+def test_random_seed_derives_the_sensor_seed():
+    s = LoadScenario(data="sensor: {seed: 5}")
+    assert s.random_seed == -1 and s.SensorSeed() == 5
+    a = LoadScenario(data="random_seed: 1\nsensor: {seed: 5}").SensorSeed()
+    b = LoadScenario(data="random_seed: 2\nsensor: {seed: 5}").SensorSeed()
+    assert a != b and a == LoadScenario(data="random_seed: 1").SensorSeed()
+    with pytest.raises(ScenarioError, match="^random_seed: must be an integer >= -1"):
+        LoadScenario(data="random_seed: -2")

@@ -65,9 +65,9 @@ def test_flights_are_reproducible_and_vary_what_the_study_says(study):
     assert {k["wind.speed"] for k, _ in flights} == {2.0, 6.0}
     assert all(s.simulation.time_limit == 12.0 for _, s in flights)
     world0 = [s for k, s in flights if k["world"] == 0]
-    assert len({s.sensor.seed for s in world0}) == 1  # one world, every policy
+    assert len({s.random_seed for s in world0}) == 1  # one world, every policy
     # Common random numbers: draw d is the same at every grid point.
-    assert len({s.sensor.seed for _, s in flights}) == 2
+    assert len({s.random_seed for _, s in flights}) == 2
 
 
 def test_serial_and_parallel_give_identical_rows(study, tmp_path):
