@@ -62,6 +62,14 @@ def _Finite(observation: PlannerObservation) -> bool:
     return bool(np.all(np.isfinite(values)) and o.period > 0.0)
 
 
+def _InvalidInput(problem: MissionProblem, memory) -> PlannerDecision:
+    """A non-finite observation: the lowest plan, counted as a failed, infeasible step."""
+    low = problem.candidates[problem.lowest_candidate]
+    return PlannerDecision(
+        float(problem.grid[0]), low.copy(), memory, False, False, "invalid input"
+    )
+
+
 class StaticPolicy(PlannerPolicy):
     """Holds the initial parameters (paper 003 plans I and II)."""
 
@@ -126,10 +134,7 @@ class MpcPolicy(PlannerPolicy):
         o = observation
         pb = self.problem
         if not _Finite(o):
-            low = pb.candidates[pb.lowest_candidate]
-            return PlannerDecision(
-                float(pb.grid[0]), low.copy(), memory, False, False, "invalid input"
-            )
+            return _InvalidInput(pb, memory)
         pb.SetObservation(o)
         low = pb.Lowest()
         if not low.feasible:
@@ -195,10 +200,7 @@ class GreedyPolicy(PlannerPolicy):
         o = observation
         pb = self.problem
         if not _Finite(o):
-            low = pb.candidates[pb.lowest_candidate]
-            return PlannerDecision(
-                float(pb.grid[0]), low.copy(), memory, False, False, "invalid input"
-            )
+            return _InvalidInput(pb, memory)
         pb.SetObservation(o)
         reserve = float(pb.battery.reserve_soc)
         j_now = int(np.clip(np.searchsorted(pb.grid, o.path_parameter + 1e-9) - 1, 0, None))
