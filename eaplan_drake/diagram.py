@@ -37,7 +37,7 @@ from eaplan_drake.policies import MakePolicy
 from eaplan_drake.sensor import PowerSensor
 from eaplan_drake.sequencer import StageSequencer
 
-__all__ = ["LOGGED_SIGNALS", "MakeEaplanDiagram", "WindVector"]
+__all__ = ["LOGGED_SIGNALS", "MakeEaplanDiagram", "MakeScenarioPolicy", "WindVector"]
 
 LOGGED_SIGNALS = {
     # log name: (system name, output port name)
@@ -106,18 +106,7 @@ def MakeEaplanDiagram(
     w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
     grid = scenario.planner.PathParameterGrid()
     if policy is None:
-        policy = MakePolicy(
-            scenario.planner,
-            table,
-            scenario.energy_model.order,
-            scenario.battery,
-            # t(c1) at the bounds in the scenario's wind (the paper's Eq. 10 line).
-            coverage_time_bounds=plan.CoverageTimeBounds(
-                scenario.planner.path_parameter_bounds, scenario.vehicle.airspeed, w
-            ),
-            path_parameter_grid=grid,
-            integer=scenario.computation.integer,
-        )
+        policy = MakeScenarioPolicy(scenario, table, plan)
     wind = builder.AddNamedSystem("wind", ConstantVectorSource(w))
     plant = builder.AddNamedSystem("plant", FixedWingPlant(scenario.vehicle))
     sequencer = builder.AddNamedSystem(
@@ -222,6 +211,25 @@ def MakeEaplanDiagram(
     diagram = builder.Build()
     diagram.set_name("eaplan")
     return diagram
+
+
+def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
+    """The policy ``scenario.planner.policy`` names, as :func:`MakeEaplanDiagram` builds it for
+    ``table`` (:class:`~eaplan_drake.computation.ComputationTable`) and ``plan`` (the plan
+    source): the Eq. 10 line through t(c1) at the bounds in the scenario's wind, and the c1 grid
+    of the sequencer's ``remaining_time``."""
+    w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
+    return MakePolicy(
+        scenario.planner,
+        table,
+        scenario.energy_model.order,
+        scenario.battery,
+        coverage_time_bounds=plan.CoverageTimeBounds(
+            scenario.planner.path_parameter_bounds, scenario.vehicle.airspeed, w
+        ),
+        path_parameter_grid=scenario.planner.PathParameterGrid(),
+        integer=scenario.computation.integer,
+    )
 
 
 def _InitialCoefficients(scenario: Scenario) -> np.ndarray:

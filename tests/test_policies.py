@@ -12,7 +12,6 @@ from eaplan_drake.computation import LoadComputationTable
 from eaplan_drake.mpc import MissionProgram
 from eaplan_drake.params import BatteryFault, Scenario
 from eaplan_drake.planner import PlannerDecision, PlannerPolicy
-from eaplan_drake.policies import MakePolicy
 from eaplan_drake.simulation import FlyHindsight, HindsightGrid, Simulate
 from eaplan_drake.worlds import DrawWorld, WithPolicy
 
@@ -29,20 +28,10 @@ def _Short(policy="mpc", time_limit=40.0):
 
 def _MpcPolicy(scenario):
     from eaplan_drake.coverage import MakeCoveragePlan
-    from eaplan_drake.diagram import WindVector
+    from eaplan_drake.diagram import MakeScenarioPolicy
 
     plan = MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=0.0)
-    w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
-    return MakePolicy(
-        scenario.planner,
-        TABLE,
-        scenario.energy_model.order,
-        scenario.battery,
-        coverage_time_bounds=plan.CoverageTimeBounds(
-            scenario.planner.path_parameter_bounds, scenario.vehicle.airspeed, w
-        ),
-        path_parameter_grid=scenario.planner.PathParameterGrid(),
-    )
+    return MakeScenarioPolicy(scenario, TABLE, plan)
 
 
 class _SlowProgram(MissionProgram):
