@@ -106,6 +106,7 @@ def _Compare(args) -> int:
         if policy:
             scenario.planner.policy = policy
             scenario.planner.warmup = PlannerParams().warmup
+            scenario.planner.warmup_parameters = PlannerParams().warmup_parameters
             scenario.name = f"{name}_{policy}"
         scenarios.append((name, scenario))
     print(f"simulating {len(scenarios)} flights ...", file=sys.stderr, flush=True)

@@ -37,7 +37,13 @@ from eaplan_drake.policies import MakePolicy
 from eaplan_drake.sensor import PowerSensor
 from eaplan_drake.sequencer import StageSequencer
 
-__all__ = ["LOGGED_SIGNALS", "MakeEaplanDiagram", "MakeScenarioPolicy", "WindVector"]
+__all__ = [
+    "LOGGED_SIGNALS",
+    "MakeEaplanDiagram",
+    "MakeScenarioPolicy",
+    "StartParameters",
+    "WindVector",
+]
 
 LOGGED_SIGNALS = {
     # log name: (system name, output port name)
@@ -90,7 +96,7 @@ def MakeEaplanDiagram(
             f"{table.num_parameters} parameter(s), "
             f"got {len(scenario.computation.initial_parameters)}"
         )
-    c1_0 = scenario.planner.initial_path_parameters[0]
+    c1_0, c2_0 = StartParameters(scenario, table)
     if scenario.coverage.plan_file:
         plan = LoadPlanFile(
             scenario.coverage.plan_file,
@@ -153,7 +159,7 @@ def MakeEaplanDiagram(
             period=scenario.planner.period,
             warmup=scenario.planner.warmup,
             initial_path_parameter=c1_0,
-            initial_computation_parameters=scenario.computation.initial_parameters,
+            initial_computation_parameters=c2_0,
             path_parameter_grid_size=grid.size,
         ),
     )
@@ -211,6 +217,17 @@ def MakeEaplanDiagram(
     diagram = builder.Build()
     diagram.set_name("eaplan")
     return diagram
+
+
+def StartParameters(scenario: Scenario, table) -> tuple[float, list[float]]:
+    """(c1 [m²], c2 [table units]) flown from t = 0 until the planner first acts: the lowest plan
+    (c̲1, the table's lowest c2) when ``planner.warmup_parameters`` is "lowest" and the policy
+    acts, else the initial parameters (``planner.initial_path_parameters``,
+    ``computation.initial_parameters``)."""
+    p = scenario.planner
+    if p.warmup_parameters == "lowest" and not p.is_static:
+        return float(p.path_parameter_bounds[0]), [float(v) for v in table.lower]
+    return float(p.initial_path_parameters[0]), list(scenario.computation.initial_parameters)
 
 
 def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:

@@ -39,13 +39,27 @@ the lowest plan. While only the uncertainty term or the fault reserve excludes t
 (the estimate has not settled yet, or the fault reserve is partly spent) it flies the lowest
 plan without the flag.
 
-**Margin.** m(t) = m_floor + m_fault + z · s_b · t · σ_α0: a configurable floor (0.02), a
-reserve for battery faults nobody can foresee (0.10 by default: one fault of the size of the
-reference plan i's, −6 % and −9 %; without it, on random worlds with 0–3 drops of 0–15 %, a
-third of the missions the lowest plan completes were lost to a late drop), and z standard
-deviations of the drain error that an error
-σ_α0 = sqrt(P_00) [W] of the estimated mean power causes over t seconds, with
-s_b = k_b/(Q_c sqrt(V² − 4 R_r y0)) [1/(W s)] the SoC rate per watt at the mean load y0 = α̂0.
+**Margin.** m(t) = m_floor + m_fault(t) + z · s_b · t · σ_α0 for a plan with t seconds of survey
+left: a configurable floor (0.02); a reserve for battery faults nobody can foresee,
+m_fault(t) = R_f · min(1, t/τ_f) (``fault_reserve`` R_f = 0.10 by default, one fault of the size
+of the reference plan i's, −6 % and −9 %; ``fault_reserve_time`` τ_f: faults come at a rate, so
+the reserve can shrink with the exposure that is left; τ_f = 0 holds R_f to the end); and z
+standard deviations of the drain error that an error σ_α0 = sqrt(P_00) [W] of the estimated mean
+power causes over t seconds, with s_b = k_b/(Q_c sqrt(V² − 4 R_r y0)) [1/(W s)] the SoC rate per
+watt at the mean load y0 = α̂0. m never grows as the survey goes on (t only decreases), so the
+margin does not break recursive feasibility.
+
+**What is guaranteed, and what cannot be.** Before the planner first acts (``warmup``: the
+estimate of the mean power is unreliable before about one period) the aircraft flies the lowest
+plan (``warmup_parameters: lowest``), so nothing is spent before the first check. From then on,
+while the predictions hold, the lowest plan ends at least b_res + m_floor + m_fault above empty
+after every step; an SoC drop d ≤ m_fault (the drops of a flight adding up to at most the reserve)
+leaves it at least b_res + m_floor, and the planner then flies the lowest plan when it must: the
+survey is completed. Larger drops are not covered, and no policy can cover them without giving
+up quality everywhere: if the lowest plan ends ε above the reserve in a world with a drop late in
+the flight, every policy that has spent more than ε by then fails, and before the drop the world
+looks the same as one without it. The fault reserve sets that trade (README, "Planner
+policies").
 
 **Objective.** The paper's metric rewards the time-weighted mean of ½c̃1 + ½c̃2; the planner
 maximises the quality of the plan, J = (w1 c̃1 + w2 mean_i c̃2_i)/(w1 + w2) with c̃ the parameters
@@ -209,7 +223,9 @@ class MissionProblem:
         s_b = self._soc_per_amp_second / disc
         sigma = math.sqrt(max(float(mean_power_variance), 0.0))
         p = self.params
-        self._margin_const = float(p.margin_floor) + float(p.fault_reserve)
+        self._margin_floor = float(p.margin_floor)
+        self._fault_reserve = float(p.fault_reserve)
+        self._fault_time = float(p.fault_reserve_time)
         self._margin_rate = float(p.margin_sigmas) * s_b * sigma  # [1/s]
 
     def SetObservation(self, observation) -> None:
@@ -224,9 +240,25 @@ class MissionProblem:
             o.computation_parameters,
         )
 
+    def FaultReserve(self, t):
+        """m_fault(t) [-] for the remaining time t [s]: ``fault_reserve`` · min(1, t/τ_f), the
+        whole reserve when τ_f = ``fault_reserve_time`` is 0."""
+        t = np.asarray(t, dtype=float)
+        if self._fault_time <= 0.0:
+            return np.full_like(t, self._fault_reserve)
+        return self._fault_reserve * np.minimum(1.0, np.maximum(t, 0.0) / self._fault_time)
+
     def Margin(self, t):
         """m(t) [-] for the remaining time t [s]."""
-        return self._margin_const + self._margin_rate * np.asarray(t, dtype=float)
+        t = np.asarray(t, dtype=float)
+        return self._margin_floor + self.FaultReserve(t) + self._margin_rate * t
+
+    def MarginSlope(self, t: float) -> float:
+        """dm/dt [1/s] at the remaining time t [s] (right derivative at the kink t = τ_f)."""
+        slope = self._margin_rate
+        if 0.0 < self._fault_time and t < self._fault_time:
+            slope += self._fault_reserve / self._fault_time
+        return slope
 
     def SocCurve(self, power: float) -> np.ndarray:
         """b at the nodes k·h_T (k = 0 … n) under the held computation power g(c2) = ``power``
@@ -300,12 +332,12 @@ class MissionProblem:
         uncertainty term nor the fault reserve counted): when it does not, the survey is
         infeasible; when only those terms exclude it, the planner flies the lowest plan to keep
         as much of them as it can."""
-        saved = self._margin_rate, self._margin_const
-        self._margin_rate, self._margin_const = 0.0, float(self.params.margin_floor)
+        saved = self._margin_rate, self._fault_reserve
+        self._margin_rate, self._fault_reserve = 0.0, 0.0
         try:
             return self.Lowest().feasible
         finally:
-            self._margin_rate, self._margin_const = saved
+            self._margin_rate, self._fault_reserve = saved
 
     def BestOf(self, candidates, powers, path_index_limit: int | None = None):
         """The best feasible plan over the c2 ``candidates`` (rows) with exact ``powers`` [W],
@@ -552,7 +584,7 @@ class MissionProgram:
             return out
         grad_g = sur.gradient(u2.reshape(1, -1))[0]  # (σ,)
         J = np.zeros((2, xv.size))
-        J[0, 0] = (db_dt - pb._margin_rate) * dt_du1
+        J[0, 0] = (db_dt - pb.MarginSlope(t)) * dt_du1
         J[0, 1:] = db_dg * grad_g
         J[1, 1:] = db_step_dg * grad_g
         return InitializeAutoDiff(out, self.scale * J @ ExtractGradient(x))

@@ -369,6 +369,12 @@ class PlannerParams:
     estimated mean power α̂0 is unreliable (measured on the default flight: off by 20–75 W at
     5–20 s, 6 W at 30 s, < 0.5 W from 40 s on). The paper waits ≈ two periods (80 s, pinned in
     the reference scenarios)."""
+    warmup_parameters: str = "lowest"
+    """What an acting policy flies before ``warmup``: "lowest" (c̲1 and the table's lowest c2:
+    spend nothing before the energy estimate can be trusted; in tight worlds the warm-up at full
+    quality already spent the margin) or "initial" (``initial_path_parameters`` and
+    ``computation.initial_parameters``, as the paper does; pinned in the reference scenarios).
+    A static policy always flies the initial parameters."""
     path_parameter_bounds: list[float] = dc.field(default_factory=lambda: [-1000.0, 0.0])
     """[c1_min, c1_max] [m²]; c1_min must be >= r_min² − r²."""
     initial_path_parameters: list[float] = dc.field(default_factory=lambda: [0.0])
@@ -405,6 +411,12 @@ class PlannerParams:
     40 random worlds (0–3 drops of 0–15 %, benchmarks/bench_policies.py --first-seed 1000), the
     mpc completed 23 of the 33 missions the lowest plan completes with 0, and 31 with 0.10 and
     with 0.15 (the two lost to two late drops); each 0.05 costs quality where nothing fails."""
+    fault_reserve_time: float = 0.0
+    """τ_f [s]: the fault reserve held for a plan with t seconds of survey left is
+    ``fault_reserve`` · min(1, t/τ_f): faults come at a rate, so the exposure, and the reserve,
+    shrink as the survey nears its end (the reserve is then spent on quality). 0 holds the whole
+    reserve to the end. A margin that does not grow as time passes keeps the mpc recursively
+    feasible."""
     max_iterations: int = 100
     """IPOPT iteration limit per solve [-]: the only bound of a solve in simulation."""
     max_wall_time: float = 0.0
@@ -426,6 +438,11 @@ class PlannerParams:
             f"must be an integer in [1, 1000], got {self.horizon!r}",
         )
         _nonnegative(self.warmup, f"{key}.warmup")
+        _check(
+            self.warmup_parameters in ("lowest", "initial"),
+            f"{key}.warmup_parameters",
+            f'must be "lowest" or "initial", got {self.warmup_parameters!r}',
+        )
         _bounds(self.path_parameter_bounds, f"{key}.path_parameter_bounds")
         _vector(self.initial_path_parameters, f"{key}.initial_path_parameters")
         lo, hi = self.path_parameter_bounds
@@ -456,6 +473,7 @@ class PlannerParams:
         _in_range(self.margin_floor, f"{key}.margin_floor", 0.0, 1.0 - 1e-9)
         _in_range(self.margin_sigmas, f"{key}.margin_sigmas", 0.0, 100.0)
         _in_range(self.fault_reserve, f"{key}.fault_reserve", 0.0, 1.0 - 1e-9)
+        _in_range(self.fault_reserve_time, f"{key}.fault_reserve_time", 0.0, 1e5)
         _check(
             isinstance(self.max_iterations, int) and 1 <= self.max_iterations <= 10_000,
             f"{key}.max_iterations",

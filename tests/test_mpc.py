@@ -80,10 +80,11 @@ def test_soc_prediction_matches_the_rint_closed_form_for_a_constant_load(table):
             assert slope == pytest.approx((SocAfter(0.9, load, 1.0, BATTERY) - 0.9), rel=1e-9)
 
 
-def test_smooth_constraint_jacobian_matches_finite_differences(table):
+@pytest.mark.parametrize("fault_reserve_time", [0.0, 400.0])
+def test_smooth_constraint_jacobian_matches_finite_differences(table, fault_reserve_time):
     rng = np.random.default_rng(3)
     policy = MakePolicy(
-        PlannerParams(),
+        PlannerParams(fault_reserve_time=fault_reserve_time),
         table,
         ORDER,
         BATTERY,
@@ -101,6 +102,32 @@ def test_smooth_constraint_jacobian_matches_finite_differences(table):
             e[i] = 1e-6
             fd = (program._Constraints(x + e) - program._Constraints(x - e)) / 2e-6
             np.testing.assert_allclose(J[:, i], fd, rtol=1e-4, atol=1e-5)
+
+
+def test_fault_reserve_shrinks_with_the_remaining_time_and_keeps_its_slope(table):
+    pb = _Problem(table, margin_floor=0.02, fault_reserve=0.12, fault_reserve_time=300.0)
+    q = np.array([33.0, 2.0, 0.5, 1.0, 0.0, 0.2, 0.1])
+    pb.SetState(q, 0.0, 0.9, PERIOD, np.full(GRID.size, 60.0), [10.0])  # σ = 0: no growth
+    t = np.array([0.0, 75.0, 150.0, 299.0, 300.0, 800.0])
+    np.testing.assert_allclose(pb.FaultReserve(t), 0.12 * np.minimum(1.0, t / 300.0), atol=1e-15)
+    np.testing.assert_allclose(pb.Margin(t), 0.02 + 0.12 * np.minimum(1.0, t / 300.0), atol=1e-15)
+    assert pb.MarginSlope(150.0) == pytest.approx(0.12 / 300.0, rel=1e-12)
+    assert pb.MarginSlope(450.0) == 0.0
+    held = _Problem(table, margin_floor=0.02, fault_reserve=0.12, fault_reserve_time=0.0)
+    held.SetState(q, 0.0, 0.9, PERIOD, np.full(GRID.size, 60.0), [10.0])
+    np.testing.assert_allclose(held.Margin(t), 0.14, atol=1e-15)
+    # The margin never grows as the survey goes on, so a plan feasible now stays feasible.
+    assert np.all(np.diff(pb.Margin(np.linspace(0.0, 900.0, 91))) >= 0.0)
+
+
+def test_a_shrinking_fault_reserve_never_lowers_the_quality(table):
+    rng = np.random.default_rng(5)
+    for _ in range(30):
+        q, var, soc, t_rem = _RandomState(rng)
+        held, shrinking = _Problem(table), _Problem(table, fault_reserve_time=300.0)
+        held.SetState(q, var, soc, PERIOD, t_rem, [10.0])
+        shrinking.SetState(q, var, soc, PERIOD, t_rem, [10.0])
+        assert shrinking.BruteForce().quality >= held.BruteForce().quality - 1e-12
 
 
 def test_plenty_of_battery_gives_the_highest_plan_and_none_the_lowest_flagged(table):

@@ -109,8 +109,24 @@ def test_a_python_policy_object_replaces_the_scenarios():
     t = log.times
     np.testing.assert_array_equal(log["path_parameters"][t > 40.05, 0], -500.0)
     np.testing.assert_array_equal(log["computation_parameters"][t > 40.05, 0], 4.0)
-    np.testing.assert_array_equal(log["computation_parameters"][t < 39.95, 0], 10.0)
+    np.testing.assert_array_equal(log["computation_parameters"][t < 39.95, 0], 2.0)
     assert log.summary["policy"] == "constant"
+
+
+@pytest.mark.parametrize(
+    "warmup_parameters, c1, c2", [("lowest", -1000.0, 2.0), ("initial", 0.0, 10.0)]
+)
+def test_the_warmup_flies_the_lowest_plan_or_the_initial_parameters(warmup_parameters, c1, c2):
+    scenario = _Short("mpc", time_limit=10.0)
+    scenario.planner.warmup_parameters = warmup_parameters
+    log = Simulate(scenario)
+    np.testing.assert_array_equal(log["path_parameters"][:, 0], c1)
+    np.testing.assert_array_equal(log["computation_parameters"][:, 0], c2)
+    static = _Short("static", time_limit=10.0)  # a static plan always flies its initial pair
+    static.planner.warmup_parameters = "lowest"
+    log = Simulate(static)
+    np.testing.assert_array_equal(log["path_parameters"][:, 0], 0.0)
+    np.testing.assert_array_equal(log["computation_parameters"][:, 0], 10.0)
 
 
 def test_hindsight_grid_is_ordered_by_quality():
