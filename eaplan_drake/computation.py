@@ -322,7 +322,14 @@ class ComputationLoad(LeafSystem):
         self._parameters_port = self.DeclareVectorInputPort(
             "computation_parameters", table.num_parameters
         )
-        self._power_port = self.DeclareVectorOutputPort("power", 1, self._CalcPower)
+        # g depends on the parameters only: cached until they change (the planner changes them
+        # at most once per h_T), not recomputed at every step of the 100 Hz chain.
+        self._power_port = self.DeclareVectorOutputPort(
+            "power",
+            1,
+            self._CalcPower,
+            prerequisites_of_calc={self._parameters_port.ticket()},
+        )
 
     @property
     def table(self) -> ComputationTable:
