@@ -467,11 +467,13 @@ def _CollectLog(diagram, context) -> FlightLog:
 def _JsonSafe(value):
     if isinstance(value, dict):
         return {str(k): _JsonSafe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple | np.ndarray):
-        return [_JsonSafe(v) for v in np.asarray(value).tolist()]
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, list | tuple):
+        return [_JsonSafe(v) for v in value]
     if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float) and not np.isfinite(value):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
 
