@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from eaplan_drake.cli import main as cli_main
+from eaplan_drake.diagram import LOGGED_SIGNALS
 from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
 from eaplan_drake.plant import FixedWingDynamics, NonFiniteCommandError
 from eaplan_drake.resolve import PeakCircleHeadingRate, ResolveScenario, TriggerDistance
@@ -460,29 +461,21 @@ def test_result_directory_is_replaced_as_a_unit(tmp_path):
 
 # -- kill tests -------------------------------------------------------------------------------
 
-_SAVE_LOOP = """
-import sys
-import numpy as np
-from eaplan_drake.params import Scenario
-from eaplan_drake.simulation import FlightLog, SaveFlight
 
-out = sys.argv[1]
-n = 200
-for g in range(10**6):
+def _SaveLoop(out: str, started) -> None:
+    """Saves flights of increasing generation g into ``out`` forever (run in a forked child)."""
+    from eaplan_drake.simulation import FlightLog, SaveFlight
+
+    n = 200
     t = np.linspace(0.0, 20.0, n)
-    signals = {name: np.zeros((n, k)) for name, k in (
-        ("position", 2), ("heading", 1), ("motion_power", 1), ("stage", 1), ("period", 1),
-        ("coverage_remaining", 1), ("computation_power", 1), ("measured_power", 1),
-        ("true_power", 1), ("estimated_power", 1), ("energy_coefficients", 7), ("soc", 1),
-        ("power_budget", 1), ("brownout", 1), ("path_parameters", 1),
-        ("computation_parameters", 1), ("mission_feasible", 1))}
-    signals["generation"] = np.full((n, 1), float(g))
-    signals["position"][:, 0] = t
-    summary = {"generation": g, "status": "time_limit", "duration": 20.0, "final_soc": 0.9,
-               "metric": None}
-    SaveFlight(FlightLog(times=t, signals=signals, summary=summary), Scenario(), out)
-    print(g, flush=True)
-"""
+    sizes = {"position": 2, "energy_coefficients": 7}
+    started.set()
+    for g in range(10**6):
+        signals = {name: np.zeros((n, sizes.get(name, 1))) for name in LOGGED_SIGNALS}
+        signals["generation"] = np.full((n, 1), float(g))
+        signals["position"][:, 0] = t
+        summary = {"generation": g, "status": "time_limit", "duration": 20.0, "metric": None}
+        SaveFlight(FlightLog(times=t, signals=signals, summary=summary), Scenario(), out)
 
 
 def _CheckResultDirectory(final: Path) -> None:
@@ -499,25 +492,23 @@ def _CheckResultDirectory(final: Path) -> None:
 
 
 def test_kill_during_save_leaves_no_half_written_or_orphaned_file(tmp_path):
+    import multiprocessing
+
     from eaplan_drake.simulation import ResultDirectory
 
     rng = random.Random(10)
     final = tmp_path / "out" / "run"
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
-    for _ in range(4):
-        proc = subprocess.Popen(
-            [sys.executable, "-c", _SAVE_LOOP, str(final)],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.DEVNULL,
-            text=True,
-            env=env,
-        )
+    fork = multiprocessing.get_context("fork")  # the imports are done in the children
+    for _ in range(5):  # a save takes 1–3 s here: the kills land in all of its phases
+        started = fork.Event()
+        child = fork.Process(target=_SaveLoop, args=(str(final), started), daemon=True)
+        child.start()
         try:
-            assert proc.stdout.readline().strip() == "0"  # one save done: now mid-loop
-            time.sleep(rng.uniform(0.0, 0.6))
+            assert started.wait(timeout=60)
+            time.sleep(rng.uniform(0.0, 3.0))
         finally:
-            proc.send_signal(signal.SIGKILL)
-            proc.wait(timeout=60)
+            os.kill(child.pid, signal.SIGKILL)
+            child.join(timeout=60)
         _CheckResultDirectory(final)
     # The next save removes what the killed processes left (pid-named temporaries).
     with ResultDirectory(final) as tmp:
@@ -529,7 +520,7 @@ def test_kill_during_save_leaves_no_half_written_or_orphaned_file(tmp_path):
 def test_kill_during_a_run_leaves_no_half_written_file(tmp_path):
     rng = random.Random(11)
     scenario = tmp_path / "short.yaml"
-    scenario.write_text("name: short\nsimulation: {time_limit: 10.0}\n")
+    scenario.write_text("name: short\nsimulation: {time_limit: 5.0}\n")
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
     for _ in range(2):
