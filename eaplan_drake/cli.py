@@ -9,6 +9,7 @@ A bad scenario is one line on stderr and exit status 2, never a traceback.
 """
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -56,19 +57,19 @@ def _FormatSummary(summary: dict) -> str:
 
 
 def _Simulate(args) -> int:
-    from eaplan_drake.plots import SaveFlightPlots
-    from eaplan_drake.simulation import LoadNamedScenario, Simulate
+    from eaplan_drake.resolve import ResolveScenario
+    from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
 
     scenario = LoadNamedScenario(args.scenario, [OverrideFromAssignment(a) for a in args.set])
     if args.policy:
         scenario.planner.policy = args.policy
         scenario.name = f"{scenario.name}_{args.policy}"
         scenario.Validate()
+    ResolveScenario(scenario)  # every scenario error before the flight
     out = Path(args.out) / scenario.name
     print(f"simulating {scenario.name} ...", file=sys.stderr, flush=True)
     log = Simulate(scenario, progress=_Progress)
-    log.Save(out)
-    png = SaveFlightPlots(log, scenario, out)
+    png = SaveFlight(log, scenario, out)
     print(_FormatSummary(log.summary))
     print(f"log and plots in {out} ({png.name})")
     return 0
@@ -97,8 +98,7 @@ their scenarios) and the two dynamic ones again with the mpc policy."""
 
 
 def _Compare(args) -> int:
-    from eaplan_drake.plots import SaveFlightPlots
-    from eaplan_drake.simulation import LoadNamedScenario, Simulate
+    from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
 
     scenarios = []
     for name, policy in COMPARE_FLIGHTS:
@@ -121,8 +121,7 @@ def _Compare(args) -> int:
     rows = []
     for (name, scenario), log in zip(scenarios, logs, strict=True):
         if args.out:
-            log.Save(Path(args.out) / scenario.name)
-            SaveFlightPlots(log, scenario, Path(args.out) / scenario.name)
+            SaveFlight(log, scenario, Path(args.out) / scenario.name)
         rows.append((scenario.name, log.summary, PAPER_RESULTS[name]))
     print(CompareTable(rows))
     return 0
@@ -243,11 +242,31 @@ def main(argv=None) -> int:
     try:
         return args.run(args)
     except ScenarioError as e:
-        print(f"eaplan-drake: scenario error: {e}", file=sys.stderr)
+        print(f"eaplan-drake: scenario error: {_OneLine(e)}", file=sys.stderr)
+        return 2
+    except (ValueError, UnicodeError, RecursionError) as e:  # bad input found by a loader
+        print(f"eaplan-drake: input error: {_OneLine(e)}", file=sys.stderr)
+        return 2
+    except OSError as e:  # a file that cannot be read or written
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"eaplan-drake: file error: {where}{e.strerror or _OneLine(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("eaplan-drake: interrupted", file=sys.stderr)
         return 130
+    except Exception as e:  # a bug: still one line; EAPLAN_DRAKE_DEBUG=1 shows the traceback
+        if os.environ.get("EAPLAN_DRAKE_DEBUG"):
+            raise
+        print(
+            f"eaplan-drake: internal error: {type(e).__name__}: {_OneLine(e)} "
+            "(set EAPLAN_DRAKE_DEBUG=1 for the traceback)",
+            file=sys.stderr,
+        )
+        return 1
+
+
+def _OneLine(e: BaseException) -> str:
+    return " ".join(str(e).split()) or type(e).__name__
 
 
 if __name__ == "__main__":

@@ -46,6 +46,12 @@ PACKAGED_TABLES = {
 """Names accepted by :func:`LoadComputationTable` → packaged CSV files."""
 
 
+MAX_TABLE_ROWS = 10_000
+"""Largest number of data rows of a powprofiler table [-]."""
+MAX_TABLE_BYTES = 1_000_000
+"""Largest powprofiler table file [bytes]."""
+
+
 class ComputationTableError(ValueError):
     """A powprofiler table is malformed; the message names the file and the line."""
 
@@ -235,7 +241,13 @@ def ParseComputationTable(text: str, source: str = "<table>") -> ComputationTabl
                 )
         if len(fields) != width:
             raise ComputationTableError(f"{where}: expected {width} columns, got {len(fields)}")
-        values = [_parse_number(f, where) for f in fields]
+        if len(rows) >= MAX_TABLE_ROWS:
+            raise ComputationTableError(f"{where}: more than {MAX_TABLE_ROWS} data rows")
+        values = [_parse_number(f, f"{where}:{_Column(stripped, k)}") for k, f in enumerate(fields)]
+        if values[-1] < 0.0:
+            raise ComputationTableError(
+                f"{where}:{_Column(stripped, width - 1)}: power must be >= 0 W, got {values[-1]:g}"
+            )
         if rows and tuple(values[:-1]) <= tuple(rows[-1][1][:-1]):
             kind = "duplicate" if values[:-1] == rows[-1][1][:-1] else "unsorted"
             raise ComputationTableError(
@@ -256,6 +268,11 @@ def ParseComputationTable(text: str, source: str = "<table>") -> ComputationTabl
                 f"{source}: parameter column {j + 1} takes a single value {g[0]:g}; "
                 "every parameter needs at least 2 values"
             )
+    if math.prod(shape) > MAX_TABLE_ROWS:  # before building the grid in memory
+        raise ComputationTableError(
+            f"{source}: incomplete grid: {len(rows)} rows but the parameter values "
+            f"({' × '.join(str(n) for n in shape)} distinct values) need {math.prod(shape)}"
+        )
     # Rows are strictly increasing lexicographically, so they are the grid (in C order) iff
     # each row matches the expected combination and none is missing.
     expected = np.stack(np.meshgrid(*grids, indexing="ij"), axis=-1).reshape(-1, sigma)
@@ -276,6 +293,14 @@ def ParseComputationTable(text: str, source: str = "<table>") -> ComputationTabl
     return ComputationTable(grids, watts.reshape(shape), source=source)
 
 
+def _Column(line: str, k: int) -> int:
+    """1-based column of the k-th comma-separated field of a stripped line."""
+    col = 0
+    for _ in range(k):
+        col = line.index(",", col) + 1
+    return col + len(line[col:]) - len(line[col:].lstrip()) + 1
+
+
 def _is_header_field(field: str) -> bool:
     try:
         float(field)
@@ -293,7 +318,19 @@ def LoadComputationTable(name_or_path: str | Path) -> ComputationTable:
             f"computation table {key!r}: no such file (packaged names: "
             f"{', '.join(sorted(PACKAGED_TABLES))})"
         )
-    return ParseComputationTable(path.read_text(), source=str(path))
+    size = path.stat().st_size
+    if size > MAX_TABLE_BYTES:
+        raise ComputationTableError(
+            f"{path}: {size} bytes, more than the {MAX_TABLE_BYTES} allowed"
+        )
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
+        raise ComputationTableError(f"{path}:{line}:{col}: not UTF-8 text") from None
+    return ParseComputationTable(text, source=str(path))
 
 
 class ComputationLoad(LeafSystem):

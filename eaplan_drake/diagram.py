@@ -25,15 +25,14 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
 from eaplan_drake.battery import Battery
-from eaplan_drake.computation import ComputationLoad, LoadComputationTable
-from eaplan_drake.coverage import MakeCoveragePlan
+from eaplan_drake.computation import ComputationLoad
 from eaplan_drake.estimator import EnergyEstimator
 from eaplan_drake.guidance import VectorFieldGuidance
 from eaplan_drake.params import Scenario
-from eaplan_drake.planfile import LoadPlanFile
 from eaplan_drake.planner import PlannerPolicy, PlannerScheduler
 from eaplan_drake.plant import FixedWingPlant, MaxHeadingRate
 from eaplan_drake.policies import MakePolicy
+from eaplan_drake.resolve import ResolvedScenario, ResolveScenario, StartParameters
 from eaplan_drake.sensor import PowerSensor
 from eaplan_drake.sequencer import StageSequencer
 
@@ -41,7 +40,6 @@ __all__ = [
     "LOGGED_SIGNALS",
     "MakeEaplanDiagram",
     "MakeScenarioPolicy",
-    "StartParameters",
     "WindVector",
 ]
 
@@ -75,39 +73,23 @@ def WindVector(speed: float, direction_deg: float) -> np.ndarray:
 
 
 def MakeEaplanDiagram(
-    scenario: Scenario,
+    scenario: Scenario | ResolvedScenario,
     log_period: float | None = None,
     *,
     policy: PlannerPolicy | None = None,
 ) -> Diagram:
-    """Builds the closed-loop diagram of ``scenario`` (validated first).
+    """Builds the closed-loop diagram of ``scenario``, resolved first
+    (:func:`~eaplan_drake.resolve.ResolveScenario`: table and plan loaded, every cross-field
+    constraint checked; or pass a :class:`~eaplan_drake.resolve.ResolvedScenario`).
 
     ``log_period`` [s] overrides ``scenario.simulation.log_period``; 0 disables the loggers.
     ``policy`` replaces the policy that ``scenario.planner.policy`` names (a Python user's own
     :class:`~eaplan_drake.planner.PlannerPolicy`).
     """
-    scenario.Validate()
+    resolved = scenario if isinstance(scenario, ResolvedScenario) else ResolveScenario(scenario)
+    scenario, table, plan = resolved.scenario, resolved.table, resolved.plan
     builder = DiagramBuilder()
-
-    table = LoadComputationTable(scenario.computation.table)
-    if len(scenario.computation.initial_parameters) != table.num_parameters:
-        raise ValueError(
-            f"computation.initial_parameters: the table {scenario.computation.table!r} has "
-            f"{table.num_parameters} parameter(s), "
-            f"got {len(scenario.computation.initial_parameters)}"
-        )
     c1_0, c2_0 = StartParameters(scenario, table)
-    if scenario.coverage.plan_file:
-        plan = LoadPlanFile(
-            scenario.coverage.plan_file,
-            vehicle=scenario.vehicle,
-            c1=c1_0,
-            k_e=scenario.guidance.k_e,
-        )
-    else:
-        plan = MakeCoveragePlan(
-            scenario.coverage, scenario.vehicle, c1=c1_0, k_e=scenario.guidance.k_e
-        )
 
     w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
     grid = scenario.planner.PathParameterGrid()
@@ -217,17 +199,6 @@ def MakeEaplanDiagram(
     diagram = builder.Build()
     diagram.set_name("eaplan")
     return diagram
-
-
-def StartParameters(scenario: Scenario, table) -> tuple[float, list[float]]:
-    """(c1 [m²], c2 [table units]) flown from t = 0 until the planner first acts: the lowest plan
-    (c̲1, the table's lowest c2) when ``planner.warmup_parameters`` is "lowest" and the policy
-    acts, else the initial parameters (``planner.initial_path_parameters``,
-    ``computation.initial_parameters``)."""
-    p = scenario.planner
-    if p.warmup_parameters == "lowest" and not p.is_static:
-        return float(p.path_parameter_bounds[0]), [float(v) for v in table.lower]
-    return float(p.initial_path_parameters[0]), list(scenario.computation.initial_parameters)
 
 
 def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:

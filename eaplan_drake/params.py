@@ -11,10 +11,13 @@ value outside its physical range raises :class:`ScenarioError` whose message nam
 import copy
 import dataclasses as dc
 import math
+import numbers
+import re
 import typing
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 __all__ = [
     "BatteryFault",
@@ -43,6 +46,40 @@ class ScenarioError(ValueError):
     """A scenario (YAML or dataclass) has a bad key, type or value; the message names the key."""
 
 
+# -- bounds on the fields that set an amount of work --------------------------------------------
+# Chosen so that the worst accepted scenario still ends: at most MAX_STEPS integrator steps or
+# sensor/estimator events (the reference flight: 1.5e5), MAX_LOG_SAMPLES log samples (1.5e4).
+
+MAX_RATE = 1000.0
+"""Largest sensor and estimator rate [Hz]."""
+MAX_TIME_LIMIT = 20_000.0
+"""Largest simulation.time_limit [s]."""
+MAX_STEPS = 2e6
+"""Largest time_limit × max(sensor.rate, estimator.rate, 1 / max_step) [-]."""
+MIN_LOG_PERIOD, MAX_LOG_PERIOD = 1e-3, 1000.0
+"""Range of simulation.log_period [s]."""
+MAX_LOG_SAMPLES = 2e5
+"""Largest time_limit / log_period [-]."""
+MIN_MAX_STEP, MAX_MAX_STEP = 1e-4, 1.0
+"""Range of simulation.max_step [s]."""
+MIN_PLANNER_PERIOD, MAX_PLANNER_PERIOD = 0.1, 600.0
+"""Range of planner.period [s]."""
+MAX_PLANNER_STEPS = 1e5
+"""Largest time_limit / planner.period [-]."""
+MAX_HORIZON = 100
+"""Largest planner.horizon [steps]."""
+MAX_VARIANCE = 1e6
+"""Largest estimator variance (initial_covariance, process_noise, measurement_noise) [W²]."""
+MAX_POLYGON_VERTICES = 100
+MAX_SURVEY_LINES = 2000
+"""Largest width of the field across the lines / swath_spacing [-] (a 2000-line plan has ≈ 8000
+stages and takes ≈ 1 s to build)."""
+MAX_FAULTS = 100
+MAX_COMPUTATION_PARAMETERS = 8
+MAX_NAME_LENGTH = 100
+_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*")
+
+
 # -- validation helpers -------------------------------------------------------------------------
 
 
@@ -51,7 +88,14 @@ def _check(cond: bool, key: str, message: str) -> None:
         raise ScenarioError(f"{key}: {message}")
 
 
+def _is_int(value) -> bool:
+    """An integer (Python or numpy), not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
 def _finite(value, key: str) -> float:
+    if isinstance(value, bool | np.bool_ | str | bytes):
+        raise ScenarioError(f"{key}: expected a number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -80,6 +124,12 @@ def _vector(value, key: str, size: int | None = None) -> list[float]:
     if size is not None:
         _check(len(values) == size, key, f"must have {size} entries, got {len(values)}")
     return values
+
+
+def _at_most(value, key: str, hi: float, unit: str, why: str) -> None:
+    """An upper bound on a field that sets an amount of work; ``why`` says what it bounds."""
+    v = _finite(value, key)
+    _check(v <= hi, key, f"must be <= {hi:g} {unit} ({why}), got {v:g}")
 
 
 def _bounds(value, key: str) -> None:
@@ -171,6 +221,11 @@ class CoverageParams:
 
     def Validate(self, key: str = "coverage") -> None:
         _check(len(self.polygon) >= 3, f"{key}.polygon", "needs at least 3 vertices")
+        _check(
+            len(self.polygon) <= MAX_POLYGON_VERTICES,
+            f"{key}.polygon",
+            f"at most {MAX_POLYGON_VERTICES} vertices, got {len(self.polygon)}",
+        )
         for i, v in enumerate(self.polygon):
             _vector(v, f"{key}.polygon[{i}]", 2)
         _in_range(self.line_edge, f"{key}.line_edge", 0, len(self.polygon) - 1)
@@ -185,12 +240,19 @@ class CoverageParams:
         )
         _nonnegative(self.trigger_radius, f"{key}.trigger_radius")
         # Geometry (convexity, degenerate polygons, line edge, size for one repetition).
-        from .coverage import ZamboniCoverage
+        from .coverage import CoveragePolygon, ZamboniCoverage
 
         try:
+            width = CoveragePolygon(self.polygon, self.line_edge, key).width
+            _check(
+                width / self.swath_spacing <= MAX_SURVEY_LINES,
+                f"{key}.polygon",
+                f"the field is {width:g} m across the lines, more than {MAX_SURVEY_LINES} "
+                f"lines of swath_spacing = {self.swath_spacing:g} m (bounds the plan's size)",
+            )
             ZamboniCoverage(self)
-        except ValueError as e:
-            raise ScenarioError(str(e)) from None
+        except (ValueError, RuntimeError, OverflowError) as e:
+            raise ScenarioError(str(e).splitlines()[0] if str(e) else f"{key}: {e!r}") from None
 
 
 @dc.dataclass
@@ -228,6 +290,11 @@ class ComputationParams:
     def Validate(self, key: str = "computation") -> None:
         _check(bool(self.table), f"{key}.table", "must name a table")
         _check(len(self.initial_parameters) >= 1, f"{key}.initial_parameters", "needs >= 1 entry")
+        _check(
+            len(self.initial_parameters) <= MAX_COMPUTATION_PARAMETERS,
+            f"{key}.initial_parameters",
+            f"at most {MAX_COMPUTATION_PARAMETERS} entries, got {len(self.initial_parameters)}",
+        )
         _vector(self.initial_parameters, f"{key}.initial_parameters")
 
 
@@ -246,7 +313,7 @@ class EnergyModelParams:
 
     def Validate(self, key: str = "energy_model") -> None:
         _check(
-            isinstance(self.order, int) and 0 <= self.order <= 20,
+            _is_int(self.order) and 0 <= self.order <= 20,
             f"{key}.order",
             f"must be an integer in [0, 20], got {self.order!r}",
         )
@@ -292,6 +359,16 @@ class BatteryParams:
         _positive(self.k_b, f"{key}.k_b")
         _in_range(self.initial_soc, f"{key}.initial_soc", 1e-9, 1.0)
         _in_range(self.reserve_soc, f"{key}.reserve_soc", 0.0, 1.0 - 1e-9)
+        _check(
+            self.reserve_soc < self.initial_soc,
+            f"{key}.reserve_soc",
+            f"must be below battery.initial_soc = {self.initial_soc:g}, got {self.reserve_soc:g}",
+        )
+        _check(
+            len(self.faults) <= MAX_FAULTS,
+            f"{key}.faults",
+            f"at most {MAX_FAULTS} faults, got {len(self.faults)}",
+        )
         for i, f in enumerate(self.faults):
             _nonnegative(f.time, f"{key}.faults[{i}].time")
             _in_range(f.soc_drop, f"{key}.faults[{i}].soc_drop", 1e-12, 1.0)
@@ -312,10 +389,11 @@ class SensorParams:
 
     def Validate(self, key: str = "sensor") -> None:
         _positive(self.rate, f"{key}.rate")
+        _at_most(self.rate, f"{key}.rate", MAX_RATE, "Hz", "bounds the events per second")
         _nonnegative(self.noise_std, f"{key}.noise_std")
         _in_range(self.dropout_probability, f"{key}.dropout_probability", 0.0, 1.0 - 1e-9)
         _check(
-            isinstance(self.seed, int) and not isinstance(self.seed, bool) and self.seed >= 0,
+            _is_int(self.seed) and self.seed >= 0,
             f"{key}.seed",
             f"must be an integer >= 0, got {self.seed!r}",
         )
@@ -338,9 +416,15 @@ class EstimatorParams:
 
     def Validate(self, key: str = "estimator") -> None:
         _positive(self.rate, f"{key}.rate")
+        _at_most(self.rate, f"{key}.rate", MAX_RATE, "Hz", "bounds the events per second")
         _positive(self.initial_covariance, f"{key}.initial_covariance")
+        _at_most(
+            self.initial_covariance, f"{key}.initial_covariance", MAX_VARIANCE, "W²", "numerics"
+        )
         _nonnegative(self.process_noise, f"{key}.process_noise")
+        _at_most(self.process_noise, f"{key}.process_noise", MAX_VARIANCE, "W²", "numerics")
         _positive(self.measurement_noise, f"{key}.measurement_noise")
+        _at_most(self.measurement_noise, f"{key}.measurement_noise", MAX_VARIANCE, "W²", "numerics")
 
 
 POLICIES = ("mpc", "paper", "greedy", "greedy_authors", "static", "hindsight")
@@ -431,11 +515,11 @@ class PlannerParams:
             f"{key}.policy",
             f"must be one of {', '.join(POLICIES)}, got {self.policy!r}",
         )
-        _positive(self.period, f"{key}.period")
+        _in_range(self.period, f"{key}.period", MIN_PLANNER_PERIOD, MAX_PLANNER_PERIOD)
         _check(
-            isinstance(self.horizon, int) and 1 <= self.horizon <= 1000,
+            _is_int(self.horizon) and 1 <= self.horizon <= MAX_HORIZON,
             f"{key}.horizon",
-            f"must be an integer in [1, 1000], got {self.horizon!r}",
+            f"must be an integer in [1, {MAX_HORIZON}] (bounds each solve), got {self.horizon!r}",
         )
         _nonnegative(self.warmup, f"{key}.warmup")
         _check(
@@ -444,7 +528,7 @@ class PlannerParams:
             f'must be "lowest" or "initial", got {self.warmup_parameters!r}',
         )
         _bounds(self.path_parameter_bounds, f"{key}.path_parameter_bounds")
-        _vector(self.initial_path_parameters, f"{key}.initial_path_parameters")
+        _vector(self.initial_path_parameters, f"{key}.initial_path_parameters", 1)
         lo, hi = self.path_parameter_bounds
         for i, c in enumerate(self.initial_path_parameters):
             _in_range(c, f"{key}.initial_path_parameters[{i}]", lo, hi)
@@ -515,7 +599,14 @@ class SimulationParams:
 
     def Validate(self, key: str = "simulation") -> None:
         _positive(self.time_limit, f"{key}.time_limit")
-        _positive(self.log_period, f"{key}.log_period")
+        _at_most(self.time_limit, f"{key}.time_limit", MAX_TIME_LIMIT, "s", "bounds a flight")
+        _in_range(self.log_period, f"{key}.log_period", MIN_LOG_PERIOD, MAX_LOG_PERIOD)
+        _check(
+            self.time_limit / self.log_period <= MAX_LOG_SAMPLES,
+            f"{key}.log_period",
+            f"time_limit / log_period must be <= {MAX_LOG_SAMPLES:g} log samples, got "
+            f"{self.time_limit / self.log_period:g}",
+        )
         from pydrake.systems.analysis import GetIntegrationSchemes
 
         schemes = GetIntegrationSchemes()
@@ -524,7 +615,7 @@ class SimulationParams:
             f"{key}.integrator",
             f"must be one of {', '.join(schemes)}, got {self.integrator!r}",
         )
-        _positive(self.max_step, f"{key}.max_step")
+        _in_range(self.max_step, f"{key}.max_step", MIN_MAX_STEP, MAX_MAX_STEP)
 
 
 @dc.dataclass
@@ -556,11 +647,26 @@ class Scenario:
         return int(np.random.SeedSequence([int(self.random_seed), 1]).generate_state(1)[0])
 
     def Validate(self) -> "Scenario":
-        """Checks every field; raises ScenarioError naming the first bad key. Returns self."""
+        """Checks every field; raises ScenarioError naming the first bad key. Returns self.
+
+        Types first (a params dataclass where one belongs, lists, booleans that are ``bool``,
+        numbers that are numbers; numpy integers become ``int``), then ranges, then the
+        cross-field constraints that need no file (those that do: :func:`ResolveScenario
+        <eaplan_drake.resolve.ResolveScenario>`)."""
+        _CheckTree(self, Scenario, "")
         _check(
-            isinstance(self.random_seed, int)
-            and not isinstance(self.random_seed, bool)
-            and self.random_seed >= -1,
+            isinstance(self.name, str) and bool(_NAME.fullmatch(self.name)),
+            "name",
+            "must be a plain file name (letters, digits, _ . + -, not starting with . + -), "
+            f"got {self.name!r}",
+        )
+        _check(
+            len(self.name) <= MAX_NAME_LENGTH,
+            "name",
+            f"at most {MAX_NAME_LENGTH} characters, got {len(self.name)}",
+        )
+        _check(
+            self.random_seed >= -1,
             "random_seed",
             f"must be an integer >= -1, got {self.random_seed!r}",
         )
@@ -568,6 +674,20 @@ class Scenario:
             value = getattr(self, f.name)
             if hasattr(value, "Validate"):
                 value.Validate(f.name)
+        sim = self.simulation
+        fastest = max(self.sensor.rate, self.estimator.rate, 1.0 / sim.max_step)
+        _check(
+            sim.time_limit * fastest <= MAX_STEPS,
+            "simulation.time_limit",
+            f"time_limit × max(sensor.rate, estimator.rate, 1 / max_step) must be <= "
+            f"{MAX_STEPS:g} steps, got {sim.time_limit:g} s × {fastest:g} Hz",
+        )
+        _check(
+            sim.time_limit / self.planner.period <= MAX_PLANNER_STEPS,
+            "planner.period",
+            f"simulation.time_limit / planner.period must be <= {MAX_PLANNER_STEPS:g} planner "
+            f"steps, got {sim.time_limit / self.planner.period:g}",
+        )
         _check(
             self.wind.speed < self.vehicle.airspeed,
             "wind.speed",
@@ -587,6 +707,55 @@ class Scenario:
             "c1_max must be <= 0 (r2 = sqrt(r² + c1) may not exceed r)",
         )
         return self
+
+
+def _CheckTree(obj, schema, key: str) -> None:
+    """Checks a params object against its dataclass type hints, naming the key on a mismatch;
+    numpy integers in integer fields become ``int``, tuples and arrays in list fields lists."""
+    if not isinstance(obj, schema):
+        what = "the scenario" if not key else key
+        raise ScenarioError(
+            f"{what}: expected a {schema.__name__}, got {type(obj).__name__} {_Short(obj)}"
+        )
+    for name, hint in typing.get_type_hints(schema).items():
+        full = f"{key}.{name}" if key else name
+        value = getattr(obj, name)
+        fixed = _CheckValue(hint, value, full)
+        if fixed is not value:
+            setattr(obj, name, fixed)
+
+
+def _CheckValue(hint, value, key: str):
+    if dc.is_dataclass(hint):
+        _CheckTree(value, hint, key)
+        return value
+    if typing.get_origin(hint) is list:
+        if isinstance(value, tuple | np.ndarray):
+            value = list(np.asarray(value).tolist() if isinstance(value, np.ndarray) else value)
+        if not isinstance(value, list):
+            raise ScenarioError(f"{key}: expected a list, got {_Short(value)}")
+        (item,) = typing.get_args(hint)
+        fixed = [_CheckValue(item, v, f"{key}[{i}]") for i, v in enumerate(value)]
+        return value if all(a is b for a, b in zip(fixed, value, strict=True)) else fixed
+    if hint is bool:
+        _check(isinstance(value, bool), key, f"expected true or false, got {_Short(value)}")
+    elif hint is int:
+        _check(_is_int(value), key, f"expected an integer, got {_Short(value)}")
+        return value if type(value) is int else int(value)
+    elif hint is float:
+        _check(
+            isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_),
+            key,
+            f"expected a number, got {_Short(value)}",
+        )
+    elif hint is str:
+        _check(isinstance(value, str), key, f"expected a string, got {_Short(value)}")
+    return value
+
+
+def _Short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 # -- YAML ---------------------------------------------------------------------------------------
@@ -654,8 +823,52 @@ def LoadScenario(
         path = Path(filename)
         if not path.is_file():
             raise ScenarioError(f"{path}: no such scenario file")
-        data = path.read_text()
+        data = _ReadText(path, MAX_SCENARIO_BYTES, ScenarioError)
+        scenario = _LoadLayer(data, Scenario(), f"{path}: ", source=str(path))
+        return LayerScenario(ResolveFilePaths(scenario, path.parent), overrides)
+    if not isinstance(data, str):
+        raise ScenarioError(f"LoadScenario: data= must be YAML text, got {type(data).__name__}")
     return LayerScenario(_LoadLayer(data, Scenario(), ""), overrides)
+
+
+MAX_SCENARIO_BYTES = 1_000_000
+"""Largest scenario file [bytes]."""
+
+
+def _ReadText(path: Path, max_bytes: int, error: type) -> str:
+    """The UTF-8 text of ``path``; ``error`` (one line naming the file) if it is larger than
+    ``max_bytes``, unreadable or not UTF-8."""
+    try:
+        size = path.stat().st_size
+        if size > max_bytes:
+            raise error(f"{path}: {size} bytes, more than the {max_bytes} allowed")
+        raw = path.read_bytes()
+    except OSError as e:
+        raise error(f"{path}: cannot read: {e.strerror or e}") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
+        raise error(f"{path}:{line}:{col}: not UTF-8 text (byte 0x{raw[e.start]:02x})") from None
+
+
+def ResolveFilePaths(scenario: Scenario, base_dir: str | Path) -> Scenario:
+    """``scenario`` with a relative ``computation.table`` / ``coverage.plan_file`` path made
+    relative to ``base_dir`` (the scenario file's folder) instead of the current directory;
+    packaged names (``pednet_jetson_nano``, ``reference``, …) stay. Modifies and returns it."""
+    from .computation import PACKAGED_TABLES
+
+    base = Path(base_dir)
+    table = scenario.computation.table
+    if isinstance(table, str) and table and table not in PACKAGED_TABLES:
+        if not Path(table).is_absolute():
+            scenario.computation.table = str(base / table)
+    plan = scenario.coverage.plan_file
+    if isinstance(plan, str) and plan and plan not in ("reference", "reference_plan"):
+        if not Path(plan).is_absolute():
+            scenario.coverage.plan_file = str(base / plan)
+    return scenario
 
 
 def LayerScenario(scenario: Scenario, overrides: typing.Sequence[str]) -> Scenario:
@@ -668,14 +881,57 @@ def LayerScenario(scenario: Scenario, overrides: typing.Sequence[str]) -> Scenar
     return scenario.Validate()
 
 
-def _LoadLayer(data: str, defaults: Scenario, where: str) -> Scenario:
-    """``defaults`` with the YAML ``data`` loaded over it (keys checked first)."""
-    from pydrake.common.yaml import yaml_load_data, yaml_load_typed
+class _StrictYamlLoader(yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2's floats (``1e3``, ``5e-1`` are numbers, not strings)
+    and duplicate keys an error (YAML 1.2 forbids them; PyYAML keeps the last)."""
 
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            self.flatten_mapping(node)
+            seen = {}
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    hash(key)
+                except TypeError:  # an unhashable key: the base class says so
+                    continue
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        None,
+                        None,
+                        f"duplicate key {key!r} (first on line {seen[key]})",
+                        key_node.start_mark,
+                    )
+                seen[key] = key_node.start_mark.line + 1
+        return super().construct_mapping(node, deep=deep)
+
+
+_StrictYamlLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _YamlData(data: str, source: str):
+    """The raw YAML data of ``data`` (:class:`_StrictYamlLoader`); a syntax error is one line
+    ``source:line:col: invalid YAML: problem``."""
     try:
-        raw = yaml_load_data(data=data)
-    except Exception as e:  # the YAML parser's own errors
-        raise ScenarioError(f"{where}invalid YAML: {e}") from None
+        return yaml.load(data, Loader=_StrictYamlLoader)  # noqa: S506 (a SafeLoader)
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark or e.context_mark
+        problem = " ".join(str(e.problem or e.context or "syntax error").split())
+        at = f"{source}:{mark.line + 1}:{mark.column + 1}" if mark else source
+        raise ScenarioError(f"{at}: invalid YAML: {problem}") from None
+    except (yaml.YAMLError, RecursionError) as e:
+        raise ScenarioError(f"{source}: invalid YAML: {' '.join(str(e).split())}") from None
+
+
+def _LoadLayer(data: str, defaults: Scenario, where: str, source: str = "") -> Scenario:
+    """``defaults`` with the YAML ``data`` loaded over it (keys checked first)."""
+    from pydrake.common.yaml import yaml_load_typed
+
+    raw = _YamlData(data, source or where.rstrip(": ") or "<yaml>")
     if raw is None:
         raw = {}
     if not isinstance(raw, dict):
@@ -686,7 +942,7 @@ def _LoadLayer(data: str, defaults: Scenario, where: str) -> Scenario:
     try:
         return yaml_load_typed(schema=Scenario, data=data, defaults=defaults)
     except (RuntimeError, ValueError, TypeError) as e:
-        raise ScenarioError(f"{where}wrong type: {e}") from None
+        raise ScenarioError(f"{where}wrong type: {' '.join(str(e).split())}") from None
 
 
 def OverrideFromAssignment(assignment: str) -> str:

@@ -75,6 +75,17 @@ _VARIABLES = ("x", "y", "c1")
 _FUNCTIONS = ("sqrt",)
 
 
+MAX_EXPRESSION_TOKENS = 256
+"""Longest expression [tokens]; with :data:`MAX_EXPRESSION_DEPTH` it bounds the depth of the
+parser's and evaluator's recursion far below Python's limit."""
+MAX_EXPRESSION_DEPTH = 32
+"""Deepest nesting of parentheses in an expression [-]."""
+MAX_PLAN_BYTES = 1_000_000
+"""Largest plan file [bytes]."""
+MAX_PLAN_SPECS = 10_000
+"""Most stages in a plan file [-]."""
+
+
 class _ExprError(Exception):
     def __init__(self, col: int, message: str):
         super().__init__(message)
@@ -85,6 +96,7 @@ class _ExprError(Exception):
 def _Tokenize(text: str, col0: int) -> list[tuple[str, object, int]]:
     tokens = []
     pos = 0
+    depth = 0
     text = text.rstrip()
     while pos < len(text):
         m = _TOKEN.match(text, pos)
@@ -103,6 +115,14 @@ def _Tokenize(text: str, col0: int) -> list[tuple[str, object, int]]:
         else:
             tokens.append(("op", m.group("op"), col))
         pos = m.end()
+        if len(tokens) > MAX_EXPRESSION_TOKENS:
+            raise _ExprError(col, f"expression longer than {MAX_EXPRESSION_TOKENS} tokens")
+        if tokens[-1][:2] == ("op", "("):
+            depth += 1
+            if depth > MAX_EXPRESSION_DEPTH:
+                raise _ExprError(col, f"parentheses nested deeper than {MAX_EXPRESSION_DEPTH}")
+        elif tokens[-1][:2] == ("op", ")"):
+            depth -= 1
     tokens.append(("end", None, col0 + len(text)))
     return tokens
 
@@ -257,6 +277,8 @@ def ParseExpression(text: str, col0: int = 1) -> Expression:
         tree = _Parser(_Tokenize(text, col0)).parse()
     except _ExprError as e:
         raise ValueError(f"column {e.col}: {e.message}") from None
+    except RecursionError:  # unreachable within the token and depth bounds; kept as a guard
+        raise ValueError(f"column {col0}: expression nested too deeply") from None
     return Expression(text=text.strip(), tree=tree, variables=frozenset(_Uses(tree, set())))
 
 
@@ -580,6 +602,8 @@ def ParsePlanText(text: str, source: str = "<plan>"):
             trigger = _Pair(body, source, number, "a triggering point")
             specs.append(PlanStageSpec(trigger=trigger, trigger_line=number, **pending))
             pending = None
+            if len(specs) > MAX_PLAN_SPECS:
+                raise PlanFileError(f"{source}:{number}:1: more than {MAX_PLAN_SPECS} stages")
     if pending is not None:
         specs.append(PlanStageSpec(trigger=None, trigger_line=pending["line"], **pending))
     if not specs:
@@ -598,11 +622,24 @@ def ReadPlanFile(path_or_text=None, *, text: str | None = None, **kwargs) -> Pla
         path = Path(REFERENCE_PLAN if path_or_text is None else path_or_text)
         if not path.is_file():
             raise PlanFileError(f"{path}: no such plan file")
-        text, source = path.read_text(), str(path)
+        text, source = _ReadPlanText(path), str(path)
     else:
         source = "<text>"
     specs, shift = ParsePlanText(text, source)
     return PlanFile(specs, shift, source=source, **kwargs)
+
+
+def _ReadPlanText(path: Path) -> str:
+    size = path.stat().st_size
+    if size > MAX_PLAN_BYTES:
+        raise PlanFileError(f"{path}: {size} bytes, more than the {MAX_PLAN_BYTES} allowed")
+    raw = path.read_bytes()
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
+        raise PlanFileError(f"{path}:{line}:{col}: not UTF-8 text") from None
 
 
 def LoadPlanFile(

@@ -52,6 +52,8 @@ __all__ = [
     "MaxHeadingRate",
     "MotionPower",
     "MotionPowerRange",
+    "NonFiniteCommandError",
+    "CheckedCommand",
     "WrapToPi",
 ]
 
@@ -114,10 +116,24 @@ def GroundVelocity(heading, wind, airspeed: float) -> np.ndarray:
     return airspeed * np.array([math.cos(heading), math.sin(heading)]) + w
 
 
+class NonFiniteCommandError(ValueError):
+    """The heading-rate command u is NaN or infinite: an upstream failure, never a turn."""
+
+
+def CheckedCommand(u) -> float:
+    """u [rad/s] as a float; :class:`NonFiniteCommandError` if it is NaN or ±inf (a NaN would
+    otherwise pass ``min``/``max`` saturation as a full-rate turn)."""
+    u = float(u)
+    if not math.isfinite(u):
+        raise NonFiniteCommandError(f"FixedWingPlant: heading_rate_command is not finite: {u}")
+    return u
+
+
 def FixedWingDynamics(state, heading_rate_command, wind, airspeed, max_heading_rate):
-    """f(x, u, w) = [v_a cos ψ + w_x, v_a sin ψ + w_y, sat(u, ψ̇_max)] for x = (x, y, ψ)."""
+    """f(x, u, w) = [v_a cos ψ + w_x, v_a sin ψ + w_y, sat(u, ψ̇_max)] for x = (x, y, ψ);
+    a non-finite u raises :class:`NonFiniteCommandError`."""
     psi = float(state[2])
-    u = min(max(float(heading_rate_command), -max_heading_rate), max_heading_rate)
+    u = min(max(CheckedCommand(heading_rate_command), -max_heading_rate), max_heading_rate)
     return np.array(
         [
             airspeed * math.cos(psi) + float(wind[0]),
@@ -152,7 +168,9 @@ def FixedWingPlant_(T):
         Continuous state (x, y, ψ) [m, m, rad], initialised from ``vehicle.initial_position`` and
         ``vehicle.initial_heading_deg``. Ports:
 
-        - ``heading_rate_command`` (1) u [rad/s], saturated here at ±ψ̇_max;
+        - ``heading_rate_command`` (1) u [rad/s], saturated here at ±ψ̇_max; a NaN or infinite
+          command raises :class:`NonFiniteCommandError` (``Simulate`` ends the flight with status
+          ``numerical_failure``), never a full-rate turn;
         - ``wind`` (2) w [m/s] (connect e.g. a ConstantVectorSource);
         - ``position`` (2) p [m], depends on the state only;
         - ``heading`` (1) ψ [rad], the integrated state, *not wrapped* (continuous through full
@@ -259,6 +277,8 @@ def FixedWingPlant_(T):
         def DoCalcTimeDerivatives(self, context, derivatives):
             psi = context.get_continuous_state_vector().GetAtIndex(2)
             u = self._u_port.Eval(context)[0]
+            if T is float:
+                u = CheckedCommand(u)
             w = self._wind_port.Eval(context)
             r = self._max_rate
             v = self._airspeed
@@ -283,7 +303,10 @@ def FixedWingPlant_(T):
 
         def _CalcMotionPower(self, context, output):
             r = self._max_rate
-            u = smax(-r, smin(r, self._u_port.Eval(context)[0]))
+            u = self._u_port.Eval(context)[0]
+            if T is float:
+                u = CheckedCommand(u)
+            u = smax(-r, smin(r, u))
             output.SetAtIndex(0, self._p0 + self._p2 * u * u)
 
     return Impl

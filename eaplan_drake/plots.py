@@ -12,7 +12,7 @@ from matplotlib.collections import LineCollection
 
 from eaplan_drake.diagram import WindVector
 from eaplan_drake.params import Scenario
-from eaplan_drake.simulation import FlightLog, NormaliseParameters
+from eaplan_drake.simulation import AtomicWrite, FlightLog, NormaliseParameters
 
 __all__ = [
     "PlotFlight",
@@ -118,11 +118,14 @@ def PlotFlight(log: FlightLog, scenario: Scenario):
 
 
 def SaveFlightPlots(log: FlightLog, scenario: Scenario, directory: str | Path) -> Path:
-    """Saves :func:`PlotFlight` as ``<directory>/flight.png``; returns the path."""
+    """Saves :func:`PlotFlight` as ``<directory>/flight.png`` (atomically: temporary file, fsync,
+    rename); returns the path."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     fig = PlotFlight(log, scenario)
     path = directory / "flight.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        AtomicWrite(path, lambda f: fig.savefig(f, format="png", dpi=110), binary=True)
+    finally:
+        plt.close(fig)
     return path

@@ -8,15 +8,26 @@ paper's quality metric (paper 003 Sec. V)
     P = mean_t(½ c̃1 + ½ c̃2) / (b(t_f) − b_reserve),
 
 c̃ the parameters normalised to [0, 1] by their bounds; a flight that does not complete the survey
-or ends with b ≤ b_reserve fails (P is then ``None``). Logs save as ``log.npz`` + ``summary.json``,
-each written to a temporary file and renamed, so an interrupted save never leaves a half file.
+or ends with b ≤ b_reserve fails (P is then ``None``). If a state or the heading-rate command
+becomes NaN or infinite, the flight ends with status ``numerical_failure``.
+
+Output on disk is written whole or not at all: every file goes through a temporary file in the
+same folder, ``fsync``, ``rename`` (:func:`AtomicWrite`), and :func:`SaveFlight` writes a flight's
+result directory (log, summary, figure) into a temporary directory that replaces the old one as
+a unit, so a new log never sits beside an old figure. Temporary files are removed on every exit
+Python sees; those of a killed process (named with its pid) by the next save into the same folder.
+The summary is strict JSON (NaN and infinities are written as ``null``).
 """
 
+import contextlib
 import copy
 import dataclasses as dc
 import itertools
 import json
+import math
 import os
+import re
+import shutil
 import tempfile
 import time
 import typing
@@ -31,8 +42,11 @@ from pydrake.systems.framework import EventStatus
 from eaplan_drake.diagram import LOGGED_SIGNALS, MakeEaplanDiagram
 from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
 from eaplan_drake.planner import PlannerPolicy
+from eaplan_drake.plant import NonFiniteCommandError
+from eaplan_drake.resolve import ResolveScenario
 
 __all__ = [
+    "AtomicWrite",
     "FlightLog",
     "FlyHindsight",
     "HindsightGrid",
@@ -41,6 +55,8 @@ __all__ = [
     "NormaliseParameters",
     "QualityMetric",
     "REFERENCE_SCENARIOS",
+    "ResultDirectory",
+    "SaveFlight",
     "Simulate",
 ]
 
@@ -51,6 +67,7 @@ STATUS_COMPLETE = "complete"
 STATUS_RESERVE = "reserve_reached"
 STATUS_BROWNOUT = "brownout"
 STATUS_TIME_LIMIT = "time_limit"
+STATUS_NUMERICAL = "numerical_failure"
 
 
 def LoadNamedScenario(name_or_path: str | Path, overrides: typing.Sequence[str] = ()) -> Scenario:
@@ -58,6 +75,11 @@ def LoadNamedScenario(name_or_path: str | Path, overrides: typing.Sequence[str] 
     path, with the YAML ``overrides`` layered on it in order (see
     :func:`~eaplan_drake.params.LoadScenario`). Raises :class:`ScenarioError` with one clear line
     on any problem."""
+    if not isinstance(name_or_path, str | Path):
+        raise ScenarioError(
+            f"LoadNamedScenario: expected a shipped name or a YAML path, got "
+            f"{type(name_or_path).__name__}"
+        )
     path = Path(name_or_path)
     if path.suffix in (".yaml", ".yml") or path.exists():
         return LoadScenario(filename=path, overrides=overrides)
@@ -83,17 +105,19 @@ class FlightLog:
         return self.signals[name]
 
     def Save(self, directory: str | Path) -> Path:
-        """Writes ``log.npz`` and ``summary.json`` into ``directory`` (created) atomically."""
+        """Writes ``log.npz`` and ``summary.json`` (strict JSON) into ``directory`` (created),
+        each file atomically (:func:`AtomicWrite`); :func:`SaveFlight` writes a whole result
+        directory as a unit."""
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
-        _AtomicWrite(
+        AtomicWrite(
             directory / "log.npz",
             lambda f: np.savez_compressed(f, times=self.times, **self.signals),
             binary=True,
         )
-        _AtomicWrite(
+        AtomicWrite(
             directory / "summary.json",
-            lambda f: json.dump(self.summary, f, indent=2, sort_keys=True),
+            lambda f: f.write(StrictJson(self.summary)),
             binary=False,
         )
         return directory
@@ -109,18 +133,133 @@ def LoadFlightLog(directory: str | Path) -> FlightLog:
     return FlightLog(times=times, signals=arrays, summary=summary)
 
 
-def _AtomicWrite(path: Path, write: Callable, binary: bool) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+def StrictJson(value) -> str:
+    """``value`` as strict JSON text (NaN and ±inf become ``null``, numpy scalars and arrays
+    plain numbers and lists), indented, keys sorted."""
+    return json.dumps(_JsonSafe(value), indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
+def _Umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
+def _FsyncDirectory(directory: Path) -> None:
+    fd = os.open(directory, os.O_RDONLY)
     try:
-        with os.fdopen(fd, "wb" if binary else "w") as f:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+_TEMP = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.[^.]+\.(tmp|old)")
+
+
+def _RemoveStaleTemps(folder: Path) -> None:
+    """Removes the temporary files and directories of killed processes in ``folder`` (named
+    ``.<name>.<pid>.<random>.tmp`` or ``.old`` with a pid that no longer runs)."""
+    with contextlib.suppress(OSError):
+        for entry in folder.iterdir():
+            m = _TEMP.fullmatch(entry.name)
+            if not m or _PidAlive(int(m.group("pid"))):
+                continue
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry, ignore_errors=True)
+            else:
+                entry.unlink(missing_ok=True)
+
+
+def _PidAlive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # e.g. another user's process
+        return True
+    return True
+
+
+def AtomicWrite(path: str | Path, write: Callable, binary: bool) -> Path:
+    """Writes ``path`` whole or not at all: ``write(f)`` into a temporary file in the same
+    folder, flush, ``fsync``, ``rename`` onto ``path``, ``fsync`` of the folder. The temporary
+    file is removed on any exception (and by the next write into the folder if the process was
+    killed). The file gets the normal mode (0666 & ~umask)."""
+    path = Path(path)
+    _RemoveStaleTemps(path.parent)
+    fd, tmp = tempfile.mkstemp(
+        dir=path.parent, prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp"
+    )
+    try:
+        with os.fdopen(fd, "wb" if binary else "w", encoding=None if binary else "utf-8") as f:
             write(f)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; the result is a normal file
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o666 & ~_Umask())  # mkstemp makes 0600; the result is a normal file
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    _FsyncDirectory(path.parent)
+    return path
+
+
+_AtomicWrite = AtomicWrite  # the name the studies (sweep.py) use
+
+
+@contextlib.contextmanager
+def ResultDirectory(directory: str | Path):
+    """Context manager: yields a new empty temporary directory next to ``directory``; when the
+    block ends without an exception it replaces ``directory`` as a whole (the old one, with
+    everything in it, is removed), otherwise it is removed. A reader never sees a mix of old
+    and new files; a kill between the two renames leaves no ``directory`` (and a hidden old copy
+    that the next save removes)."""
+    final = Path(directory)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    _RemoveStaleTemps(final.parent)
+    tmp = Path(
+        tempfile.mkdtemp(dir=final.parent, prefix=f".{final.name}.{os.getpid()}.", suffix=".tmp")
+    )
+    try:
+        yield tmp
+        os.chmod(tmp, 0o777 & ~_Umask())
+        _FsyncDirectory(tmp)
+        if final.exists() or final.is_symlink():
+            old = Path(f"{tmp}"[: -len(".tmp")] + ".old")
+            os.replace(final, old)
+            os.replace(tmp, final)
+            _FsyncDirectory(final.parent)
+            if old.is_dir() and not old.is_symlink():
+                shutil.rmtree(old)
+            else:
+                old.unlink()
+        else:
+            os.replace(tmp, final)
+        _FsyncDirectory(final.parent)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def SaveFlight(log: "FlightLog", scenario: Scenario, directory: str | Path) -> Path:
+    """Writes a flight's result directory as a unit (:func:`ResultDirectory`): ``log.npz``,
+    ``summary.json`` and ``flight.png``; returns the path of the figure."""
+    from eaplan_drake.plots import SaveFlightPlots
+
+    _CheckType(log, FlightLog, "log", "a FlightLog (from Simulate)")
+    _CheckType(scenario, Scenario, "scenario", "a Scenario")
+    final = Path(directory)
+    with ResultDirectory(final) as tmp:
+        log.Save(tmp)
+        png = SaveFlightPlots(log, scenario, tmp)
+    return final / png.name
+
+
+def _CheckType(value, kind, name: str, what: str) -> None:
+    if not isinstance(value, kind):
+        raise ScenarioError(f"{name}: expected {what}, got {type(value).__name__}")
 
 
 def QualityMetric(
@@ -177,11 +316,17 @@ def Simulate(
     ``policy`` replaces the planner policy the scenario names (see
     :func:`~eaplan_drake.diagram.MakeEaplanDiagram`). With ``planner.policy: hindsight`` the
     result is the best flight of :func:`FlyHindsight` (several static flights).
+
+    The scenario is resolved first (:func:`~eaplan_drake.resolve.ResolveScenario`); a bad
+    scenario or argument raises :class:`ScenarioError` (one line naming the key or argument)
+    before anything is flown. A state or command that becomes NaN or infinite ends the flight
+    with status ``numerical_failure``.
     """
+    _CheckSimulateArguments(scenario, progress, progress_interval, policy)
     if policy is None and scenario.Validate().planner.policy == "hindsight":
         return FlyHindsight(scenario, progress, progress_interval)
     wall_start = time.perf_counter()
-    diagram = MakeEaplanDiagram(scenario, policy=policy)
+    diagram = MakeEaplanDiagram(ResolveScenario(scenario), policy=policy)
     simulator = Simulator(diagram)
     ResetIntegratorFromFlags(
         simulator, scenario.simulation.integrator, scenario.simulation.max_step
@@ -191,9 +336,14 @@ def Simulate(
     soc_port = diagram.GetOutputPort("soc")
     brownout_port = diagram.GetOutputPort("brownout")
     reserve = scenario.battery.reserve_soc
-    state = {"status": STATUS_TIME_LIMIT, "next_progress": progress_interval}
+    state = {"status": STATUS_TIME_LIMIT, "next_progress": progress_interval, "next_check": 0.0}
 
     def monitor(root_context):
+        if root_context.get_time() >= state["next_check"]:
+            state["next_check"] += NUMERICS_CHECK_PERIOD
+            if not _StatesFinite(diagram, root_context):
+                state["status"] = STATUS_NUMERICAL
+                return EventStatus.ReachedTermination(diagram, state["status"])
         if complete_port.Eval(root_context)[0] > 0.5:
             state["status"] = STATUS_COMPLETE
         elif brownout_port.Eval(root_context)[0] > 0.5:
@@ -209,8 +359,11 @@ def Simulate(
         return EventStatus.ReachedTermination(diagram, state["status"])
 
     simulator.set_monitor(monitor)
-    simulator.Initialize()
-    simulator.AdvanceTo(scenario.simulation.time_limit)
+    try:
+        simulator.Initialize()
+        simulator.AdvanceTo(scenario.simulation.time_limit)
+    except NonFiniteCommandError:
+        state["status"] = STATUS_NUMERICAL
     wall_time = time.perf_counter() - wall_start
 
     log = _CollectLog(diagram, context)
@@ -254,6 +407,51 @@ def Simulate(
     return log
 
 
+NUMERICS_CHECK_PERIOD = 1.0
+"""How often the monitor checks that every state of the diagram is finite [s of flight]."""
+
+
+def _StatesFinite(diagram, root_context) -> bool:
+    """Whether the aircraft's state (x, y, ψ), the estimator's q̂ and P and the SoC are finite
+    (the sensor's NaN of a dropped sample is not a failure)."""
+    plant = diagram.GetSubsystemByName("plant")
+    x = plant.GetMyContextFromRoot(root_context).get_continuous_state_vector().CopyToVector()
+    estimator = diagram.GetSubsystemByName("estimator")
+    context = estimator.GetMyContextFromRoot(root_context)
+    q = estimator.GetOutputPort("energy_coefficients").Eval(context)
+    soc = diagram.GetOutputPort("soc").Eval(root_context)
+    return bool(
+        np.all(np.isfinite(x))
+        and np.all(np.isfinite(q))
+        and np.all(np.isfinite(estimator.Covariance(context)))
+        and np.all(np.isfinite(soc))
+    )
+
+
+def _CheckSimulateArguments(scenario, progress, progress_interval, policy) -> None:
+    _CheckType(
+        scenario, Scenario, "Simulate: scenario", "a Scenario (e.g. LoadNamedScenario('plan_i'))"
+    )
+    if progress is not None and not callable(progress):
+        raise ScenarioError(
+            f"Simulate: progress: expected a callable (t, soc) or None, got "
+            f"{type(progress).__name__}"
+        )
+    if isinstance(progress_interval, bool) or not (
+        isinstance(progress_interval, int | float)
+        and math.isfinite(progress_interval)
+        and progress_interval > 0
+    ):
+        raise ScenarioError(
+            f"Simulate: progress_interval: expected a number of seconds > 0, got "
+            f"{progress_interval!r}"
+        )
+    if policy is not None and not isinstance(policy, PlannerPolicy):
+        raise ScenarioError(
+            f"Simulate: policy: expected a PlannerPolicy or None, got {type(policy).__name__}"
+        )
+
+
 def _CollectLog(diagram, context) -> FlightLog:
     signals = {}
     times = None
@@ -269,11 +467,13 @@ def _CollectLog(diagram, context) -> FlightLog:
 def _JsonSafe(value):
     if isinstance(value, dict):
         return {str(k): _JsonSafe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple | np.ndarray):
-        return [_JsonSafe(v) for v in np.asarray(value).tolist()]
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, list | tuple):
+        return [_JsonSafe(v) for v in value]
     if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float) and not np.isfinite(value):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
 
