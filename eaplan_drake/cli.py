@@ -10,7 +10,9 @@ A bad scenario is one line on stderr and exit status 2, never a traceback.
 
 import argparse
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from eaplan_drake.params import POLICIES, OverrideFromAssignment, PlannerParams, ScenarioError
@@ -238,6 +240,7 @@ def main(argv=None) -> int:
     p.add_argument("directory")
     p.set_defaults(run=_StudyReport)
     args = parser.parse_args(argv)
+    previous = _ExitOnSigterm()
     try:
         return args.run(args)
     except ScenarioError as e:
@@ -262,6 +265,21 @@ def main(argv=None) -> int:
             file=sys.stderr,
         )
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _ExitOnSigterm():
+    """SIGTERM becomes SystemExit(143), so that every temporary file is removed on the way out
+    (as on Ctrl-C); returns the previous handler (None off the main thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def terminate(signum, frame):
+        raise SystemExit(128 + signum)
+
+    return signal.signal(signal.SIGTERM, terminate)
 
 
 def _OneLine(e: BaseException) -> str:
