@@ -69,6 +69,7 @@ def _Simulate(args) -> int:
         scenario.Validate()
     ResolveScenario(scenario)  # every scenario error before the flight
     out = Path(args.out) / scenario.name
+    out.parent.mkdir(parents=True, exist_ok=True)  # and an unusable --out
     print(f"simulating {scenario.name} ...", file=sys.stderr, flush=True)
     log = Simulate(scenario, progress=_Progress)
     png = SaveFlight(log, scenario, out)

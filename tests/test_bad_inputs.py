@@ -588,3 +588,14 @@ def test_largest_accepted_variances_keep_the_log_finite():
     for name, values in log.signals.items():
         if name != "measured_power":  # a dropped sample is NaN by design (sensor.py)
             assert np.all(np.isfinite(values)), name
+
+
+def test_cli_unusable_out_is_one_line_before_the_flight(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    status = _Bounded(cli_main, ["simulate", "plan_i", "--out", str(blocker / "sub")])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err.strip().splitlines() == [
+        f"eaplan-drake: file error: {blocker / 'sub'}: Not a directory"
+    ]
