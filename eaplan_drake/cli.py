@@ -10,7 +10,9 @@ A bad scenario is one line on stderr and exit status 2, never a traceback.
 
 import argparse
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from eaplan_drake.params import POLICIES, OverrideFromAssignment, PlannerParams, ScenarioError
@@ -67,6 +69,7 @@ def _Simulate(args) -> int:
         scenario.Validate()
     ResolveScenario(scenario)  # every scenario error before the flight
     out = Path(args.out) / scenario.name
+    out.parent.mkdir(parents=True, exist_ok=True)  # and an unusable --out
     print(f"simulating {scenario.name} ...", file=sys.stderr, flush=True)
     log = Simulate(scenario, progress=_Progress)
     png = SaveFlight(log, scenario, out)
@@ -239,6 +242,7 @@ def main(argv=None) -> int:
     p.add_argument("directory")
     p.set_defaults(run=_StudyReport)
     args = parser.parse_args(argv)
+    previous = _ExitOnSigterm()
     try:
         return args.run(args)
     except ScenarioError as e:
@@ -263,6 +267,21 @@ def main(argv=None) -> int:
             file=sys.stderr,
         )
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _ExitOnSigterm():
+    """SIGTERM becomes SystemExit(143), so that every temporary file is removed on the way out
+    (as on Ctrl-C); returns the previous handler (None off the main thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def terminate(signum, frame):
+        raise SystemExit(128 + signum)
+
+    return signal.signal(signal.SIGTERM, terminate)
 
 
 def _OneLine(e: BaseException) -> str:

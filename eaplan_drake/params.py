@@ -360,11 +360,6 @@ class BatteryParams:
         _in_range(self.initial_soc, f"{key}.initial_soc", 1e-9, 1.0)
         _in_range(self.reserve_soc, f"{key}.reserve_soc", 0.0, 1.0 - 1e-9)
         _check(
-            self.reserve_soc < self.initial_soc,
-            f"{key}.reserve_soc",
-            f"must be below battery.initial_soc = {self.initial_soc:g}, got {self.reserve_soc:g}",
-        )
-        _check(
             len(self.faults) <= MAX_FAULTS,
             f"{key}.faults",
             f"at most {MAX_FAULTS} faults, got {len(self.faults)}",
@@ -674,6 +669,12 @@ class Scenario:
             value = getattr(self, f.name)
             if hasattr(value, "Validate"):
                 value.Validate(f.name)
+        _check(
+            self.battery.reserve_soc < self.battery.initial_soc,
+            "battery.reserve_soc",
+            f"must be below battery.initial_soc = {self.battery.initial_soc:g} (the flight would "
+            f"end at once), got {self.battery.reserve_soc:g}",
+        )
         sim = self.simulation
         fastest = max(self.sensor.rate, self.estimator.rate, 1.0 / sim.max_step)
         _check(

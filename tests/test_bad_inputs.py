@@ -548,3 +548,54 @@ def test_kill_during_a_run_leaves_no_half_written_file(tmp_path):
         "log.npz",
         "summary.json",
     ]
+
+
+# -- numerics at run time ---------------------------------------------------------------------
+
+
+def test_a_non_finite_estimate_ends_the_flight_with_numerical_failure(monkeypatch):
+    """An estimator whose covariance turns NaN after 3 s (a stand-in for any numerical
+    breakdown) ends the flight at the next check with status numerical_failure."""
+    from eaplan_drake.estimator import EnergyEstimator
+    from eaplan_drake.simulation import NUMERICS_CHECK_PERIOD, Simulate
+
+    update = EnergyEstimator._Update
+
+    def broken(self, context, discrete_state):
+        update(self, context, discrete_state)
+        if context.get_time() >= 3.0:
+            x = discrete_state.get_mutable_vector(0).get_mutable_value()
+            x[self._m] = np.nan  # P[0, 0]
+
+    monkeypatch.setattr(EnergyEstimator, "_Update", broken)
+    scenario = LoadScenario(data="planner: {warmup: 60}\nsimulation: {time_limit: 20.0}\n")
+    log = Simulate(scenario)
+    assert log.summary["status"] == "numerical_failure"
+    assert 3.0 <= log.summary["duration"] <= 3.0 + NUMERICS_CHECK_PERIOD + 0.011
+    json.loads(json.dumps(log.summary, allow_nan=False))
+
+
+def test_largest_accepted_variances_keep_the_log_finite():
+    from eaplan_drake.params import MAX_VARIANCE
+    from eaplan_drake.simulation import Simulate
+
+    scenario = LoadScenario(
+        data=f"estimator: {{initial_covariance: {MAX_VARIANCE}, process_noise: {MAX_VARIANCE}, "
+        "measurement_noise: 1e-9}\nplanner: {warmup: 60}\nsimulation: {time_limit: 10.0}\n"
+    )
+    log = Simulate(scenario)
+    assert log.summary["status"] == "time_limit"
+    for name, values in log.signals.items():
+        if name != "measured_power":  # a dropped sample is NaN by design (sensor.py)
+            assert np.all(np.isfinite(values)), name
+
+
+def test_cli_unusable_out_is_one_line_before_the_flight(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    status = _Bounded(cli_main, ["simulate", "plan_i", "--out", str(blocker / "sub")])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err.strip().splitlines() == [
+        f"eaplan-drake: file error: {blocker / 'sub'}: Not a directory"
+    ]
