@@ -1,7 +1,6 @@
 """StageSequencer: triggers, period, re-planning, remaining fraction; closed-loop flights."""
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -262,9 +261,7 @@ def test_static_list_of_stages(plan):
 
 
 def test_kinematic_flight_completes_with_the_geometric_period_and_time(plan):
-    wall = time.perf_counter()
     t_end, logs = _FlyStandIn(plan, _Constant(0.0))
-    wall = time.perf_counter() - wall
     stage = logs["stage"].data()[0]
     assert np.all(np.diff(stage) >= 0) and set(np.diff(stage)) <= {0.0, 1.0}
     assert stage[-1] == len(plan.Stages(0.0)) - 1
@@ -290,7 +287,6 @@ def test_kinematic_flight_completes_with_the_geometric_period_and_time(plan):
     assert np.max(np.abs(t_rem[:-1] - (t_end - t[:-1]))) < 2.0
     assert t_rem[-1] == 0.0
     assert np.all(logs["remaining_time"].data()[0] <= logs["remaining_time"].data()[-1])
-    assert wall < 10.0
 
 
 def test_kinematic_flight_replans_in_flight(plan):
@@ -334,9 +330,7 @@ def _Fly(plan, c1, wind, t_max=1000.0):
     logs["position"] = LogVectorOutput(plant.GetOutputPort("position"), builder, 0.1)
     sim = Simulator(builder.Build())
     sim.set_monitor(_Stop(seq, seq.GetOutputPort("mission_complete")))
-    wall = time.perf_counter()
     sim.AdvanceTo(t_max)
-    wall = time.perf_counter() - wall
     ctx = sim.get_context()
     logs = {n: lg.FindLog(ctx) for n, lg in logs.items()}
     done = seq.GetOutputPort("mission_complete").Eval(seq.GetMyContextFromRoot(ctx))[0]
@@ -349,7 +343,6 @@ def _Fly(plan, c1, wind, t_max=1000.0):
         "period": logs["period"].data()[0],
         "t": logs["period"].sample_times(),
         "phi": phi,
-        "wall": wall,
     }
 
 
@@ -370,7 +363,6 @@ def test_reference_survey_completes_in_wind(plan, reference_flight):
     assert f["t_end"] == pytest.approx(plan.CoverageTime(0.0, V_A, (5.0, 0.0)), rel=0.01)
     # Tracking: |φ| (≈ distance to the active path) after the approach.
     assert np.max(np.abs(f["phi"][f["t"] > 30.0])) < 1.0
-    assert f["wall"] < 8.0
 
 
 def test_reference_period_settles(plan, reference_flight):
