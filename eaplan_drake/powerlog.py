@@ -9,8 +9,8 @@ Two layouts are recognised:
   ``current``, ``i``, ``amp``, ``amps``. A PX4 ``battery_status`` CSV export (ulog2csv:
   ``timestamp`` [µs], ``voltage_v``, ``current_a``, …) gives power = voltage_v × current_a.
 - **CSV without a header** (Paparazzi logs of the authors): one column is the Paparazzi energy
-  log (``pprz_energy.csv``: power [W] at a fixed time step, 0.2 s by default as in the authors'
-  ``scripts/energy/MAIN.m``); two or more columns are time [s] first and power [W] last
+  log (``pprz_energy.csv``: power [W] at a fixed time step, 0.5 s by default, see
+  :data:`PAPARAZZI_TIME_STEP`); two or more columns are time [s] first and power [W] last
   (``pprz_throttle.csv``: t, throttle, W), unless other columns are given by index.
 
 Every problem is one :class:`PowerLogError` naming ``file:line:col`` or the missing column.
@@ -18,11 +18,26 @@ Every problem is one :class:`PowerLogError` naming ``file:line:col`` or the miss
 
 import dataclasses as dc
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["PowerLog", "PowerLogError", "ReadPowerLog"]
+__all__ = ["REFERENCE_ENV", "PowerLog", "PowerLogError", "ReadPowerLog", "ReferenceDirectory"]
+
+REFERENCE_ENV = "EAPLAN_REFERENCE_DIR"
+"""Environment variable naming the authors' reference data (default:
+``../shared/reference/seewald2022`` beside the repository)."""
+
+
+def ReferenceDirectory() -> Path:
+    """The reference data directory: ``$EAPLAN_REFERENCE_DIR`` or the default beside the repo
+    (it may not exist; callers skip or say so)."""
+    given = os.environ.get(REFERENCE_ENV)
+    if given:
+        return Path(given)
+    return Path(__file__).resolve().parents[1].parent / "shared" / "reference" / "seewald2022"
+
 
 _TIME_NAMES = {
     "t": 1.0,
@@ -39,8 +54,10 @@ _TIME_NAMES = {
 _POWER_NAMES = ("power", "power_w", "p", "p_w", "w", "watts")
 _VOLTAGE_NAMES = ("voltage_v", "voltage", "v", "vbat", "bat", "voltage_filtered_v")
 _CURRENT_NAMES = ("current_a", "current", "i", "amp", "amps", "current_filtered_a")
-PAPARAZZI_TIME_STEP = 0.2
-"""Default step of a one-column Paparazzi energy log [s] (the authors' MAIN.m: ts = 200 ms)."""
+PAPARAZZI_TIME_STEP = 0.5
+"""Default step of a one-column Paparazzi energy log [s]: the Opterra ``pprz_energy.csv`` has the
+640 rows of ``pprz_throttle.csv`` from the same flight, stamped every 0.5 s (the authors'
+``scripts/energy/MAIN.m`` assumes 200 ms; give ``time_step`` when it differs)."""
 
 
 class PowerLogError(ValueError):
@@ -118,7 +135,7 @@ def ReadPowerLog(
             0-based index; default: recognised by name (header) or by position (no header).
         time_scale: seconds per unit of the time column (default: from its name; 1 otherwise).
         time_step: step [s] of a log without a time column (one-column Paparazzi energy log;
-            default 0.2 s).
+            default :data:`PAPARAZZI_TIME_STEP`).
 
     Rows with a non-finite time or power are dropped; the rest must have increasing times.
     """
@@ -148,6 +165,11 @@ def ReadPowerLog(
         if data.shape[0] == 0:
             raise PowerLogError(f"{path}: a header but no data rows")
         it = _Index(head, time_column, list(_TIME_NAMES), path, "time", "--time-column")
+        if it is None and time_step is None:
+            raise PowerLogError(
+                f"{path}:1: no time column (recognised: {', '.join(_TIME_NAMES)}); give "
+                f"--time-column or --time-step"
+            )
         ip = _Index(head, power_column, _POWER_NAMES, path, "power", "--power-column")
         iv = ic = None
         if ip is None:
@@ -160,11 +182,6 @@ def ReadPowerLog(
                     f"{', '.join(_CURRENT_NAMES[:3])}); give --power-column or "
                     f"--voltage-column and --current-column"
                 )
-        if it is None and time_step is None:
-            raise PowerLogError(
-                f"{path}:1: no time column (recognised: {', '.join(_TIME_NAMES)}); give "
-                f"--time-column or --time-step"
-            )
         names = head
     else:
         data = _Parse(path, lines, first, len(head))
