@@ -229,7 +229,7 @@ def _Fit(args) -> int:
     print(f"period          {fit.period:.2f} s ({result.period_source})")
     print(
         f"order r         {fit.order} (held-out score per candidate: "
-        + ", ".join(f"{r}{'+level' if lv else ''}: {v:.3g}" for r, lv, v in fit.candidates)
+        + ", ".join(f"{r} (q_0 {lv:.2g}): {v:.3g}" for r, lv, v in fit.candidates)
         + ")"
     )
     n = fit.noise

@@ -19,10 +19,12 @@ out. From then on the filter runs with the steady-state gain (:func:`SteadyState
 the time-invariant filter's limit; this makes ℓ cheap and is the standard steady-state
 approximation of the exact likelihood).
 
-**Order by a held-out criterion.** :func:`FitPowerModel` fits every candidate order on the first
-70 % of the training record and keeps the one whose predictions at 1 step, T/4, T/2 and T ahead
-have the smallest mean squared error (summed over the four horizons) on the remaining 30 %; its
-noise is then refitted on the whole training record.
+**Order by a held-out criterion.** :func:`FitPowerModel` fits candidate orders on the first 70 %
+of the training record and keeps the one whose predictions at 1 step, T/4, T/2 and T ahead have
+the smallest mean squared error (summed over the four horizons) on the remaining 30 %. The same
+criterion decides whether the level random walk q_0 is kept (a structural choice like r: the
+likelihood prefers a quickly adapting level, best one step ahead but not always T ahead); the
+chosen structure's noise is then refitted by likelihood on the whole training record.
 
 **Scores.** :func:`ScorePredictions` fits on the first half of a log and scores RMSE and MAE [W]
 of the predictions made from origins in the second half, against three baselines: last value,
@@ -244,24 +246,27 @@ def FitNoise(
     aperiodic: bool = True,
     max_evaluations: int = 200,
     start: NoiseParameters | None = None,
-    level: bool = True,
+    level: bool | float = True,
 ) -> tuple[NoiseParameters, float]:
     """(noise, ℓ): the noise maximising the innovation log-likelihood (module docstring).
 
-    θ = log10 of (R, q_n, q_0, q_d, τ) (q_d, τ only with ``aperiodic``; q_0 = 0 without
-    ``level``), τ kept in [Δt, 50 T]; Nelder–Mead from ``start`` (default: R from the lag-one
-    differences, small q's, τ = 10 s).
+    θ = log10 of (R, q_n, q_0, q_d, τ) (q_d, τ only with ``aperiodic``; q_0 searched when
+    ``level`` is True, else fixed: 0 for False, the value for a number); τ in [Δt, 50 T].
+    Nelder–Mead from ``start`` (default: R from the lag-one differences, small q's, τ = 10 s).
     """
     z = np.asarray(z, dtype=float).reshape(-1)
     dt = float(time_step)
     var = max(float(np.var(z)), 1e-9)
     tau_lo, tau_hi = dt, 50.0 * float(period)
-    names = ["R", "q_n"] + (["q_0"] if level else []) + (["q_d", "tau"] if aperiodic else [])
+    search_level = level is True
+    fixed_level = 0.0 if search_level or level is False else float(level)
+    names = ["R", "q_n"] + (["q_0"] if search_level else []) + (["q_d", "tau"] if aperiodic else [])
 
     def unpack(x):
         v = {k: float(10.0**xi) for k, xi in zip(names, x, strict=True)}
         tau = min(max(v["tau"], tau_lo), tau_hi) if aperiodic else 0.0
-        return NoiseParameters(v["R"], v["q_n"], v.get("q_0", 0.0), tau, v.get("q_d", 0.0))
+        q_0 = v.get("q_0", fixed_level)
+        return NoiseParameters(v["R"], v["q_n"], q_0, tau, v.get("q_d", 0.0))
 
     q0 = {}  # q̂(0) depends on the structure only (with or without d), not on θ
 
@@ -350,7 +355,7 @@ class PowerModelFit:
     mean_power: float
     """Mean of the training record [W]."""
     candidates: list
-    """(order, level random walk on α0?, held-out score [W²]) of every candidate tried."""
+    """(order r, level intensity q_0 [W²/step], held-out score [W²]) of every candidate tried."""
 
     def ScenarioFragment(self, estimator_rate: float = 100.0) -> str:
         """YAML for ``simulate`` with the fitted model (energy_model and estimator keys).
@@ -420,8 +425,9 @@ def FitPowerModel(
 ) -> PowerModelFit:
     """Fit order and noise to a uniform power series z [W] (step Δt [s], period T [s]).
 
-    The order is chosen among ``orders`` (those with 2r + 1 ≤ T/Δt) by the held-out criterion
-    of the module docstring; each candidate's noise search starts from the previous candidate's
+    The order is chosen among ``orders`` (those with 2r + 1 ≤ T/Δt, in increasing order, until
+    two in a row do not improve) by the held-out criterion of the module docstring, then whether
+    the level random walk q_0 helps (held out too); each noise search starts from the previous
     optimum. ``aperiodic`` adds the AR(1) load state (False: the paper's model).
     """
     z = np.asarray(z, dtype=float).reshape(-1)
@@ -436,24 +442,35 @@ def FitPowerModel(
     split = int(0.7 * z.size)
     candidates = []
     best = None
-    for level in (True, False):
-        noise = None
-        for r in sorted(int(r) for r in orders):
-            if 2 * r + 1 > P:  # more harmonics than one period of samples resolves
-                continue
-            budget = max_evaluations if noise is None else max_evaluations // 2
-            noise, _ = FitNoise(
-                z[:split], time_step, r, period, aperiodic, budget, noise, level=level
-            )
-            score = _HeldOutScore(z, time_step, r, period, noise, split)
-            candidates.append((r, level, score))
-            if best is None or score < best[2]:
-                best = (r, level, score, noise)
+    noise = None
+    worse = 0
+    for r in sorted(int(r) for r in orders):
+        if 2 * r + 1 > P:  # more harmonics than one period of samples resolves
+            continue
+        budget = max_evaluations if noise is None else max_evaluations // 3
+        noise, _ = FitNoise(z[:split], time_step, r, period, aperiodic, budget, noise)
+        score = _HeldOutScore(z, time_step, r, period, noise, split)
+        candidates.append((r, noise.mean_process_noise, score))
+        if best is None or score < best[2]:
+            best, worse = (r, noise.mean_process_noise, score, noise), 0
+        else:
+            worse += 1
+            if worse == 2:  # two larger orders in a row did not help: stop
+                break
     if best is None:
         raise ValueError(f"orders: no candidate in {list(orders)} fits a period of {P} samples")
-    r, level = best[0], best[1]
+    # Whether the level random walk q_0 helps, by the same held-out criterion.
+    r = best[0]
+    fixed, _ = FitNoise(
+        z[:split], time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=False
+    )
+    score = _HeldOutScore(z, time_step, r, period, fixed, split)
+    candidates.append((r, 0.0, score))
+    level = score >= best[2]
+    if not level:
+        best = (r, 0.0, score, fixed)
     noise, ll = FitNoise(
-        z, time_step, r, period, aperiodic, max_evaluations // 2, best[3], level=level
+        z, time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=level
     )
     return PowerModelFit(r, float(period), float(time_step), noise, ll, float(z.mean()), candidates)
 
