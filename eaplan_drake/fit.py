@@ -244,7 +244,7 @@ def FitNoise(
     order: int,
     period: float,
     aperiodic: bool = True,
-    max_evaluations: int = 200,
+    max_evaluations: int = 120,
     start: NoiseParameters | None = None,
     level: bool | float = True,
 ) -> tuple[NoiseParameters, float]:
@@ -421,7 +421,7 @@ def FitPowerModel(
     period: float,
     orders=ORDERS,
     aperiodic: bool = True,
-    max_evaluations: int = 200,
+    max_evaluations: int = 120,
 ) -> PowerModelFit:
     """Fit order and noise to a uniform power series z [W] (step Δt [s], period T [s]).
 

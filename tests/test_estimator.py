@@ -402,3 +402,26 @@ def test_estimator_aperiodic_params_validated():
         EstimatorParams(mean_process_noise=math.nan).Validate()
     assert EstimatorParams().ModelOrder(3) == 3
     assert EstimatorParams(aperiodic_time_constant=math.inf).ModelOrder(2).order == 2
+
+
+def test_closed_loop_carries_the_aperiodic_state_to_the_planner():
+    """With τ set in the scenario the estimator, the planner's input and its prediction all use
+    the augmented model (m = 2r + 2); the prediction lets d decay as exp(−t/τ)."""
+    from eaplan_drake.diagram import MakeEaplanDiagram
+    from eaplan_drake.energy_model import AugmentedOrder
+    from eaplan_drake.params import Scenario
+    from eaplan_drake.planner import FreeResponse
+
+    scenario = Scenario()
+    scenario.estimator.aperiodic_time_constant = 15.0
+    scenario.estimator.aperiodic_noise = 0.1
+    diagram = MakeEaplanDiagram(scenario)
+    estimator = diagram.GetSubsystemByName("estimator")
+    planner = diagram.GetSubsystemByName("planner")
+    m = 2 * scenario.energy_model.order + 2
+    assert estimator.GetOutputPort("energy_coefficients").size() == m
+    assert planner.GetInputPort("energy_coefficients").size() == m
+    q = np.zeros(m)
+    q[0], q[-1] = 30.0, 5.0
+    f = FreeResponse(q, AugmentedOrder(scenario.energy_model.order, 15.0), 46.0, 1.0, 31)
+    np.testing.assert_allclose(f, 30.0 + 5.0 * np.exp(-np.arange(31) / 15.0), atol=1e-12)
