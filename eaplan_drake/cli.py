@@ -4,6 +4,9 @@
   plan_i, plan_ii) or a YAML path; prints progress and the summary, writes the log and the plots.
 - ``eaplan-drake diagram [--out DIR]``: DOT and SVG of the closed loop and each subsystem.
 - ``eaplan-drake compare [--out DIR]``: the four reference flights next to the paper's numbers.
+- ``eaplan-drake fit LOG.csv [--period T] [--out DIR]``: fit the energy model to a power log
+  (first half), print its prediction errors against three baselines (second half), write a plot
+  and a scenario fragment with the fitted parameters.
 
 A bad scenario is one line on stderr and exit status 2, never a traceback.
 """
@@ -198,6 +201,57 @@ def _StudyReport(args) -> int:
     return 0
 
 
+def _Fit(args) -> int:
+    from eaplan_drake.fit import FitPowerLog, FormatScores, PlotLogFit
+    from eaplan_drake.powerlog import PowerLogError, ReadPowerLog
+    from eaplan_drake.simulation import _AtomicWrite
+
+    try:
+        log = ReadPowerLog(
+            args.log,
+            time_column=args.time_column,
+            power_column=args.power_column,
+            voltage_column=args.voltage_column,
+            current_column=args.current_column,
+            time_scale=args.time_scale,
+            time_step=args.time_step,
+        )
+        orders = [int(v) for v in args.orders.split(",")] if args.orders else None
+        kwargs = {} if orders is None else {"orders": orders}
+        result = FitPowerLog(
+            log.times, log.power, args.period, aperiodic=not args.no_aperiodic, **kwargs
+        )
+    except (PowerLogError, ValueError) as e:
+        print(f"eaplan-drake fit: {e}", file=sys.stderr)
+        return 2
+    fit = result.fit
+    print(f"log             {log.source}")
+    print(
+        f"samples         {result.power.size} at {fit.time_step:.3g} s ({result.times[-1]:.0f} s)"
+    )
+    print(f"period          {fit.period:.2f} s ({result.period_source})")
+    print(
+        f"order r         {fit.order} (held-out score per candidate: "
+        + ", ".join(f"{r} (q_0 {lv:.2g}): {v:.3g}" for r, lv, v in fit.candidates)
+        + ")"
+    )
+    n = fit.noise
+    print(
+        f"noise           R = {n.measurement_noise:.3g} W², q_n = {n.process_noise:.3g} W², "
+        f"q_0 = {n.mean_process_noise:.3g} W² per {fit.time_step:.3g} s, "
+        f"tau = {n.aperiodic_time_constant:.3g} s, q_d = {n.aperiodic_noise:.3g} W²/s"
+    )
+    print(FormatScores(result.scores))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    fragment = fit.ScenarioFragment()
+    _AtomicWrite(out / "fit.yaml", lambda f: f.write(fragment), binary=False)
+    fig = PlotLogFit(result)
+    _AtomicWrite(out / "fit.png", lambda f: fig.savefig(f, format="png", dpi=110), binary=True)
+    print(f"wrote {out / 'fit.yaml'} (for simulate) and {out / 'fit.png'}")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="eaplan-drake",
@@ -238,6 +292,19 @@ def main(argv=None) -> int:
     p.add_argument("--scheduler", default="", help="Dask scheduler address (backend dask)")
     p.add_argument("--save-logs", action="store_true", help="also save every flight's log")
     p.set_defaults(run=_Sweep)
+    p = sub.add_parser("fit", help="fit the energy model to a power log; score its predictions")
+    p.add_argument("log", help="CSV: PX4 battery_status, Paparazzi energy log, or t/power columns")
+    p.add_argument("--period", type=float, default=None, help="T [s] (default: estimated)")
+    p.add_argument("--out", default="fit", help="output directory (default: fit/)")
+    p.add_argument("--time-column", default=None, help="name or 0-based index")
+    p.add_argument("--power-column", default=None, help="name or 0-based index")
+    p.add_argument("--voltage-column", default=None, help="name or index (power = V × I)")
+    p.add_argument("--current-column", default=None, help="name or index (power = V × I)")
+    p.add_argument("--time-scale", type=float, default=None, help="seconds per time unit")
+    p.add_argument("--time-step", type=float, default=None, help="[s], logs without time")
+    p.add_argument("--orders", default="", help="candidate Fourier orders, e.g. 0,1,2,3")
+    p.add_argument("--no-aperiodic", action="store_true", help="the paper's model (no AR(1))")
+    p.set_defaults(run=_Fit)
     p = sub.add_parser("study-report", help="the report of a study directory")
     p.add_argument("directory")
     p.set_defaults(run=_StudyReport)

@@ -137,7 +137,7 @@ def MakeEaplanDiagram(
         PlannerScheduler(
             policy,
             table=table,
-            order=scenario.energy_model.order,
+            order=scenario.estimator.ModelOrder(scenario.energy_model.order),
             period=scenario.planner.period,
             warmup=scenario.planner.warmup,
             initial_path_parameter=c1_0,
@@ -210,7 +210,7 @@ def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
     return MakePolicy(
         scenario.planner,
         table,
-        scenario.energy_model.order,
+        scenario.estimator.ModelOrder(scenario.energy_model.order),
         scenario.battery,
         coverage_time_bounds=plan.CoverageTimeBounds(
             scenario.planner.path_parameter_bounds, scenario.vehicle.airspeed, w

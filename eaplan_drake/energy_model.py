@@ -18,14 +18,34 @@ A change Δg [W] of the computation power enters through B = e_0 (α0 only), so 
 Δg. The model is discretised exactly with step h: A_d = expm(A h) = blockdiag(1, R_1, …, R_r),
 R_j = [[cos ωjh, sin ωjh], [−sin ωjh, cos ωjh]] (rotations: the harmonics keep their amplitude,
 unlike forward Euler), and q⁺ = A_d q + B Δg.
+
+**Aperiodic load (opt-in, beyond the paper).** Real power is dominated by aperiodic, autocorrelated
+variation (gusts, climbs, throttle) that the periodic state cannot carry. The augmented model
+appends one state d [W], a first-order Gauss–Markov (AR(1)) load with time constant τ [s]:
+
+    ḋ = −d/τ + w_d,   E[w_d(t) w_d(s)] = q_d δ(t − s)   (q_d [W²/s]),
+    y = C q + d,
+
+discretised exactly: d⁺ = φ d, φ = exp(−h/τ), with per-step noise variance
+Q_dd = (q_d τ / 2)(1 − φ²) (stationary variance q_d τ / 2). τ = ∞ is a random walk (φ = 1,
+Q_dd = q_d h). The state is q = [α0, α1, β1, …, αr, βr, d] (m = 2r + 2), C = [1, 1, 0, …, 1, 0, 1];
+the periodic part and its exact rotation blocks are unchanged. Pass
+``AugmentedOrder(r, τ)`` wherever an ``order`` is taken (:func:`StateSize`,
+:func:`OutputMatrix`, :func:`DiscreteEnergyMatrices`, :func:`FreeResponseMatrix`), so that the
+planner's prediction C A_dᵏ q̂ lets d decay as φᵏ (or hold it, τ = ∞), as the model says. A plain
+integer r is the paper's model, bit for bit.
 """
 
+import dataclasses as dc
 import math
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 __all__ = [
+    "AperiodicDecay",
+    "AugmentedOrder",
+    "DiscreteEnergyMatrices",
     "DiscreteFourierMatrices",
     "EstimatePeriod",
     "FitFourierSeries",
@@ -34,6 +54,10 @@ __all__ = [
     "FourierOutputMatrix",
     "FourierStateFromCoefficients",
     "FreeResponseMatrix",
+    "OutputMatrix",
+    "AperiodicProcessNoise",
+    "PeriodEstimate",
+    "EstimatePeriodWithConfidence",
     "StateSize",
 ]
 
@@ -51,9 +75,62 @@ def _check_positive(value, name: str) -> float:
     return v
 
 
-def StateSize(order: int) -> int:
-    """m = 2r + 1, the size of q for Fourier order r."""
-    return 2 * _check_order(order) + 1
+@dc.dataclass(frozen=True)
+class AugmentedOrder:
+    """Structure of the augmented model: Fourier order r plus an AR(1) aperiodic load state.
+
+    ``aperiodic_time_constant`` τ [s] > 0 (``math.inf``: random walk). Accepted wherever an
+    ``order`` is (see the module docstring); ``int(AugmentedOrder(r, τ))`` is r.
+    """
+
+    order: int
+    aperiodic_time_constant: float
+
+    def __post_init__(self):
+        _check_order(self.order)
+        tau = float(self.aperiodic_time_constant)
+        if math.isnan(tau) or tau <= 0.0:
+            raise ValueError(
+                "aperiodic_time_constant: must be > 0 [s] (inf: random walk), "
+                f"got {self.aperiodic_time_constant!r}"
+            )
+
+    def __int__(self) -> int:
+        return int(self.order)
+
+
+def _Structure(order) -> tuple[int, float | None]:
+    """(r, τ) of an ``order`` argument: an integer r (τ = None, no aperiodic state) or an
+    :class:`AugmentedOrder`."""
+    if isinstance(order, AugmentedOrder):
+        return int(order.order), float(order.aperiodic_time_constant)
+    return _check_order(order), None
+
+
+def AperiodicDecay(time_constant: float, h: float) -> float:
+    """φ = exp(−h/τ) of the AR(1) load over a step h [s] (1 for τ = ∞)."""
+    tau = _check_positive_or_inf(time_constant, "aperiodic_time_constant")
+    return 1.0 if math.isinf(tau) else math.exp(-float(h) / tau)
+
+
+def _check_positive_or_inf(value, name: str) -> float:
+    v = float(value)
+    if math.isnan(v) or v <= 0.0:
+        raise ValueError(f"{name}: must be > 0 (inf allowed), got {value!r}")
+    return v
+
+
+def StateSize(order) -> int:
+    """m = 2r + 1 for Fourier order r; 2r + 2 for an :class:`AugmentedOrder`."""
+    r, tau = _Structure(order)
+    return 2 * r + 1 + (tau is not None)
+
+
+def OutputMatrix(order) -> np.ndarray:
+    """C (1×m): [1, 1, 0, …, 1, 0] for r, with a trailing 1 (y includes d) when augmented."""
+    r, tau = _Structure(order)
+    C = FourierOutputMatrix(r)
+    return C if tau is None else np.hstack((C, [[1.0]]))
 
 
 def FourierOutputMatrix(order: int) -> np.ndarray:
@@ -107,14 +184,44 @@ def DiscreteFourierMatrices(order: int, period: float, h: float) -> tuple[np.nda
     return Ad, Bd
 
 
-def FreeResponseMatrix(order: int, period: float, step: float, num_points: int) -> np.ndarray:
+def DiscreteEnergyMatrices(order, period: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """(A_d, B_d) exact for step h [s] of the model ``order`` (int r or :class:`AugmentedOrder`).
+
+    For an integer r this is :func:`DiscreteFourierMatrices`; augmented, A_d gets the extra
+    diagonal entry φ = exp(−h/τ) of the aperiodic load and B_d a zero (Δg enters α0 only).
+    """
+    r, tau = _Structure(order)
+    Ad, Bd = DiscreteFourierMatrices(r, period, h)
+    if tau is None:
+        return Ad, Bd
+    m = Ad.shape[0] + 1
+    A = np.zeros((m, m))
+    A[:-1, :-1] = Ad
+    A[-1, -1] = AperiodicDecay(tau, h)
+    return A, np.vstack((Bd, [[0.0]]))
+
+
+def AperiodicProcessNoise(order, noise_intensity: float, h: float) -> float:
+    """Q_dd = (q_d τ / 2)(1 − φ²) [W²] per step h [s] for the intensity q_d [W²/s] (q_d h for
+    τ = ∞); 0 for a model without the aperiodic state."""
+    _, tau = _Structure(order)
+    if tau is None:
+        return 0.0
+    if math.isinf(tau):
+        return float(noise_intensity) * float(h)
+    phi = AperiodicDecay(tau, h)
+    return 0.5 * float(noise_intensity) * tau * (1.0 - phi * phi)
+
+
+def FreeResponseMatrix(order, period: float, step: float, num_points: int) -> np.ndarray:
     """[C; C A_d; C A_d²; …] (num_points × m) for the exact A_d of ``step`` [s].
 
-    Row k times q̂ is the free response y(k·step) = C expm(A k·step) q̂ [W]. Powers of A_d are
+    Row k times q̂ is the free response y(k·step) = C expm(A k·step) q̂ [W]; with an
+    :class:`AugmentedOrder` the aperiodic load decays as φᵏ (holds for τ = ∞). Powers of A_d are
     stacked by doubling, so the cost is O(log num_points) small matrix products.
     """
-    Ad, _ = DiscreteFourierMatrices(order, period, step)
-    rows = FourierOutputMatrix(order)
+    Ad, _ = DiscreteEnergyMatrices(order, period, step)
+    rows = OutputMatrix(order)
     power = Ad
     while rows.shape[0] < num_points:
         rows = np.vstack((rows, rows @ power))
@@ -243,6 +350,54 @@ def EstimatePeriod(times, power, min_period: float | None = None, max_period: fl
     shift = -0.5 * c1 / c2 if c2 > 0.0 else 0.0
     shift = min(max(shift, float(x[0])), float(x[-1]))
     return (k + shift) * dt
+
+
+@dc.dataclass(frozen=True)
+class PeriodEstimate:
+    """Result of :func:`EstimatePeriodWithConfidence`."""
+
+    period: float | None
+    """T [s], or None when the signal has no clear period."""
+    confidence: float
+    """ρ(T), correlation of the mean-free signal with itself one period later [-] in [−1, 1]
+    (the periodic share of the variance for periodic + white noise); 0 if no candidate."""
+    message: str
+    """One line saying what was found (or why there is no period)."""
+
+
+def EstimatePeriodWithConfidence(
+    times,
+    power,
+    min_period: float | None = None,
+    max_period: float | None = None,
+    min_confidence: float = 0.5,
+) -> PeriodEstimate:
+    """:func:`EstimatePeriod` as a fallback that reports its confidence.
+
+    The candidate T of :func:`EstimatePeriod` is accepted when ρ(T) = corr(u(t), u(t + T)) on
+    the uniform grid is at least ``min_confidence``; otherwise (or when there is no
+    autocorrelation peak at all) ``period`` is None and ``message`` says why. Use it only when the
+    plan's geometric period is not known.
+    """
+    t, y = _FiniteSamples(times, power)
+    try:
+        T = EstimatePeriod(t, y, min_period, max_period)
+    except ValueError as e:
+        return PeriodEstimate(None, 0.0, f"no clear period: {e}")
+    dt = float(np.median(np.diff(t)))
+    grid = np.arange(t[0], t[-1] - T, dt)
+    a = np.interp(grid, t, y)
+    b = np.interp(grid + T, t, y)
+    sa, sb = float(np.std(a)), float(np.std(b))
+    rho = float(np.mean((a - a.mean()) * (b - b.mean())) / (sa * sb)) if sa * sb > 0 else 0.0
+    if rho < min_confidence:
+        return PeriodEstimate(
+            None,
+            rho,
+            f"no clear period: best candidate {T:.1f} s has correlation {rho:.2f} "
+            f"< {min_confidence:.2f} one period later",
+        )
+    return PeriodEstimate(T, rho, f"period {T:.1f} s (correlation {rho:.2f} one period later)")
 
 
 class FourierEnergyModel(LeafSystem):

@@ -6,7 +6,13 @@ Model (scaled form of DESIGN.md, see :mod:`eaplan_drake.energy_model`), sampled 
     z_k     = C q_k + v_k,                     v_k ~ N(0, R),
 
 with z the measured power [W], Δg the known change of the computation power [W] and
-Q = q_n I, R the process and measurement noise variances [W²] (per step).
+Q = q_n I (+ q_0 on α0: ``mean_process_noise``), R the process and measurement noise
+variances [W²] (per step).
+
+With the aperiodic load state (``EstimatorParams.aperiodic_time_constant`` τ > 0) the state is
+q = [α0, α1, β1, …, αr, βr, d], A_d gets φ = exp(−h/τ) for d, C a trailing 1, and
+Q = diag(q_n, …, q_n, Q_dd) with Q_dd = (q_d τ/2)(1 − φ²) (see
+:mod:`eaplan_drake.energy_model`); the filter equations below are the same.
 
 One filter step at t_k (a priori estimate q̂⁻, P⁻ for t_k, without the jump Δg_k yet):
 
@@ -27,8 +33,9 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from eaplan_drake.energy_model import (
-    DiscreteFourierMatrices,
-    FourierOutputMatrix,
+    AperiodicProcessNoise,
+    DiscreteEnergyMatrices,
+    OutputMatrix,
     StateSize,
 )
 from eaplan_drake.params import EstimatorParams
@@ -89,7 +96,8 @@ class EnergyEstimator(LeafSystem):
     [s] (re-discretised when T changes; non-finite or non-positive T is ignored). Q = q_n I and R
     from :class:`EstimatorParams`; P(0) = p0 I.
 
-    Outputs (from the state only): ``energy_coefficients`` q̂ (m = 2r + 1) [W],
+    Outputs (from the state only): ``energy_coefficients`` q̂ (m = 2r + 1, or 2r + 2 with the
+    aperiodic load d last) [W],
     ``estimated_power`` ŷ = C q̂ [W], ``covariance_trace`` tr P [W²], ``mean_power_variance``
     P_00 = Var(α̂0) [W²].
     Discrete state (one vector): [q̂ (m), P row-major (m²), g at the previous step, T in use].
@@ -122,7 +130,9 @@ class EnergyEstimator(LeafSystem):
                 f"estimator: must be an EstimatorParams, got {type(estimator).__name__}"
             )
         estimator.Validate("estimator")
-        m = StateSize(order)  # checks order
+        StateSize(order)  # checks the Fourier order r
+        model = estimator.ModelOrder(order)
+        m = StateSize(model)
         T0 = float(initial_period)
         if not (math.isfinite(T0) and T0 > 0.0):
             raise ValueError(f"initial_period: must be finite and > 0, got {initial_period!r}")
@@ -130,20 +140,27 @@ class EnergyEstimator(LeafSystem):
             q0 = np.zeros(m)
         else:
             q0 = np.asarray(initial_q, dtype=float).reshape(-1)
+            if q0.size == m - 1 and m % 2 == 0:  # Fourier part only: the aperiodic load d = 0
+                q0 = np.append(q0, 0.0)
             if q0.size != m or not np.all(np.isfinite(q0)):
                 raise ValueError(
-                    f"initial_q: must be {m} finite values (m = 2r + 1 for order {order}), got {q0}"
+                    f"initial_q: must be {m} finite values (m = 2r + 1 for order {order}, "
+                    f"+ 1 with the aperiodic state), got {q0}"
                 )
         self._order = int(order)
+        self._model = model
         self._m = m
         self._h = 1.0 / estimator.rate
         self._params = estimator
-        self._c = FourierOutputMatrix(order)[0]
-        self._Q = estimator.process_noise * np.eye(m)
+        self._c = OutputMatrix(model)[0]
+        self._q_diag = np.full(m, float(estimator.process_noise))
+        self._q_diag[0] += float(estimator.mean_process_noise)
+        if m % 2 == 0:
+            self._q_diag[-1] = AperiodicProcessNoise(model, estimator.aperiodic_noise, self._h)
         self._R = float(estimator.measurement_noise)
         self._eye = np.eye(m)
         self._Ad_period = T0
-        self._Ad = DiscreteFourierMatrices(order, T0, self._h)[0]
+        self._Ad = DiscreteEnergyMatrices(model, T0, self._h)[0]
         self._AdT = self._Ad.T.copy()
         self._diag = np.arange(m) * (m + 1)  # flat indices of diag(P)
         state = np.concatenate(
@@ -172,6 +189,11 @@ class EnergyEstimator(LeafSystem):
     @property
     def order(self) -> int:
         return self._order
+
+    @property
+    def model(self):
+        """The model structure: r, or ``AugmentedOrder(r, τ)`` with the aperiodic state."""
+        return self._model
 
     @property
     def time_step(self) -> float:
@@ -207,7 +229,7 @@ class EnergyEstimator(LeafSystem):
         if not (T > 0.0 and math.isfinite(T)):
             T = x[m + mm + 1]
         if T != self._Ad_period:  # cache of a pure function of T
-            self._Ad = DiscreteFourierMatrices(self._order, T, self._h)[0]
+            self._Ad = DiscreteEnergyMatrices(self._model, T, self._h)[0]
             self._AdT = self._Ad.T.copy()
             self._Ad_period = T
         Ad, c, R = self._Ad, self._c, self._R
@@ -233,7 +255,7 @@ class EnergyEstimator(LeafSystem):
         new[:m] = q
         flat = new[m : m + mm]
         flat[:] = P.reshape(-1)
-        flat[self._diag] += self._params.process_noise
+        flat[self._diag] += self._q_diag
         new[m + mm] = g_prev
         new[m + mm + 1] = T
         discrete_state.get_mutable_vector(self._state_index).SetFromVector(new)

@@ -151,7 +151,7 @@ class MissionProblem:
         self.params = planner
         self.table = table
         self.battery = battery
-        self.order = int(order)
+        self.order = order  # int r, or AugmentedOrder (energy_model)
         self.state_size = StateSize(order)
         self.integer = bool(integer)
         self.step = float(planner.period)

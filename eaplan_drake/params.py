@@ -408,6 +408,16 @@ class EstimatorParams:
     to 1/e in ≈ 1.2 s."""
     measurement_noise: float = 0.25
     """R, variance of the power sensor [W²] (σ = 0.5 W → 0.25)."""
+    mean_process_noise: float = 0.0
+    """Extra random-walk variance per step on the mean power α0 [W²]: Q_00 = process_noise +
+    mean_process_noise (a slowly drifting level, e.g. battery sag or wind change)."""
+    aperiodic_time_constant: float = 0.0
+    """τ of the aperiodic (AR(1), first-order Gauss–Markov) load state d [s]; 0 = no such state
+    (the paper's model, the default), ``.inf`` = random walk. Opt-in: see
+    :mod:`eaplan_drake.energy_model`; the planner's prediction uses the same model."""
+    aperiodic_noise: float = 0.0
+    """q_d, intensity of the aperiodic load's driving noise [W²/s] (stationary variance
+    q_d τ / 2); used only when aperiodic_time_constant > 0."""
 
     def Validate(self, key: str = "estimator") -> None:
         _positive(self.rate, f"{key}.rate")
@@ -420,6 +430,27 @@ class EstimatorParams:
         _at_most(self.process_noise, f"{key}.process_noise", MAX_VARIANCE, "W²", "numerics")
         _positive(self.measurement_noise, f"{key}.measurement_noise")
         _at_most(self.measurement_noise, f"{key}.measurement_noise", MAX_VARIANCE, "W²", "numerics")
+        tau = self.aperiodic_time_constant
+        _check(
+            isinstance(tau, (int, float)) and not isinstance(tau, bool) and tau >= 0.0,
+            f"{key}.aperiodic_time_constant",
+            f"must be >= 0 [s] (0: none, .inf: random walk), got {tau!r}",
+        )
+        _nonnegative(self.aperiodic_noise, f"{key}.aperiodic_noise")
+        _at_most(self.aperiodic_noise, f"{key}.aperiodic_noise", MAX_VARIANCE, "W²/s", "numerics")
+        _nonnegative(self.mean_process_noise, f"{key}.mean_process_noise")
+        _at_most(
+            self.mean_process_noise, f"{key}.mean_process_noise", MAX_VARIANCE, "W²/s", "numerics"
+        )
+
+    def ModelOrder(self, order: int):
+        """The ``order`` argument of :mod:`eaplan_drake.energy_model` for Fourier order r: r
+        itself (paper model) or ``AugmentedOrder(r, τ)`` when the aperiodic state is on."""
+        if self.aperiodic_time_constant > 0.0:
+            from eaplan_drake.energy_model import AugmentedOrder
+
+            return AugmentedOrder(int(order), float(self.aperiodic_time_constant))
+        return int(order)
 
 
 POLICIES = ("mpc", "paper", "greedy", "greedy_authors", "static", "hindsight")

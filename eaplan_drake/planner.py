@@ -433,7 +433,7 @@ class Planner:
     ):
         self.params = planner
         self.table = table
-        self.order = int(order)
+        self.order = order  # int r, or AugmentedOrder (energy_model)
         self.state_size = StateSize(order)
         self.battery = battery
         self.coverage_time = CoverageTimeModel(

@@ -344,3 +344,81 @@ def test_model_bad_constructor_arguments():
         FourierEnergyModel(3, 46.0, time_step=0.0)
     with pytest.raises(ValueError, match="initial_q"):
         FourierEnergyModel(3, 46.0, np.zeros(5))
+
+
+# -- augmented model (aperiodic AR(1) load) -------------------------------------------------------
+
+
+def test_augmented_order_sizes_and_matrices():
+    from eaplan_drake.energy_model import (
+        AperiodicDecay,
+        AperiodicProcessNoise,
+        AugmentedOrder,
+        DiscreteEnergyMatrices,
+        OutputMatrix,
+        StateSize,
+    )
+
+    model = AugmentedOrder(3, 20.0)
+    assert StateSize(3) == 7 and StateSize(model) == 8 and int(model) == 3
+    np.testing.assert_array_equal(OutputMatrix(model), [[1, 1, 0, 1, 0, 1, 0, 1]])
+    Ad, Bd = DiscreteEnergyMatrices(model, 46.0, 0.5)
+    Ad3, Bd3 = DiscreteFourierMatrices(3, 46.0, 0.5)
+    np.testing.assert_array_equal(Ad[:7, :7], Ad3)
+    assert Ad[7, 7] == pytest.approx(math.exp(-0.5 / 20.0), rel=1e-15)
+    assert not Ad[7, :7].any() and not Ad[:7, 7].any()
+    np.testing.assert_array_equal(Bd[:7], Bd3)
+    assert Bd[7, 0] == 0.0
+    # integer order: exactly the paper's matrices
+    A_int, B_int = DiscreteEnergyMatrices(3, 46.0, 0.5)
+    np.testing.assert_array_equal(A_int, Ad3)
+    np.testing.assert_array_equal(B_int, Bd3)
+    # random walk
+    assert AperiodicDecay(math.inf, 0.5) == 1.0
+    assert AperiodicProcessNoise(AugmentedOrder(1, math.inf), 0.2, 0.5) == pytest.approx(0.1)
+    # the stationary variance of the discrete AR(1) is q_d τ / 2 for any step
+    for h in (0.01, 0.5, 30.0):
+        phi = AperiodicDecay(20.0, h)
+        Qdd = AperiodicProcessNoise(model, 0.3, h)
+        assert Qdd / (1.0 - phi * phi) == pytest.approx(0.3 * 20.0 / 2.0, rel=1e-12)
+    assert AperiodicProcessNoise(3, 0.3, 0.5) == 0.0
+    with pytest.raises(ValueError, match="aperiodic_time_constant"):
+        AugmentedOrder(3, 0.0)
+    with pytest.raises(ValueError, match="order"):
+        AugmentedOrder(-1, 5.0)
+
+
+def test_free_response_decays_the_aperiodic_load_as_its_model_says():
+    from eaplan_drake.energy_model import AugmentedOrder, FourierOutputMatrix, FreeResponseMatrix
+
+    T, step, n = 46.0, 0.5, 300
+    q = np.array([30.0, 2.0, -1.0, 0.5, 0.3, 0.0, 0.0])
+    periodic = FreeResponseMatrix(3, T, step, n) @ q
+    k = np.arange(n)
+    tau_d = 12.0
+    rows = FreeResponseMatrix(AugmentedOrder(3, tau_d), T, step, n)
+    np.testing.assert_allclose(
+        rows @ np.append(q, 4.0), periodic + 4.0 * np.exp(-k * step / tau_d), atol=1e-11
+    )
+    held = FreeResponseMatrix(AugmentedOrder(3, math.inf), T, step, n) @ np.append(q, 4.0)
+    np.testing.assert_allclose(held, periodic + 4.0, atol=1e-11)
+    # the integer order gives exactly the stacked powers of the rotation
+    Ad = DiscreteFourierMatrices(3, T, step)[0]
+    C = FourierOutputMatrix(3)
+    expected = np.vstack([C @ np.linalg.matrix_power(Ad, i) for i in range(8)])
+    np.testing.assert_allclose(FreeResponseMatrix(3, T, step, 8), expected, atol=1e-13)
+
+
+def test_period_with_confidence_accepts_a_periodic_signal_and_refuses_noise():
+    from eaplan_drake.energy_model import EstimatePeriodWithConfidence
+
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 400.0, 0.2)
+    y = 30.0 + 3.0 * np.cos(2 * np.pi * t / 46.0) + np.sin(4 * np.pi * t / 46.0)
+    found = EstimatePeriodWithConfidence(t, y + rng.normal(0.0, 0.3, t.size))
+    assert found.period == pytest.approx(46.0, rel=0.01)
+    assert found.confidence > 0.9
+    noise = EstimatePeriodWithConfidence(t, rng.normal(30.0, 1.0, t.size))
+    assert noise.period is None
+    assert noise.message.startswith("no clear period")
+    assert noise.confidence < 0.5

@@ -1,0 +1,590 @@
+"""Fit the energy model to a recorded power series and score its predictions.
+
+Model (see :mod:`eaplan_drake.energy_model`): Fourier order r and period T [s], optionally with
+the aperiodic AR(1) load d (time constant τ [s], intensity q_d [W²/s]), sampled every Δt [s]:
+
+    q_{k+1} = A_d q_k + w_k,   w_k ~ N(0, diag(q_n, …, q_n, Q_dd)),
+    z_k     = C q_k + v_k,     v_k ~ N(0, R).
+
+**Noise from data.** :func:`FitNoise` maximises the innovation (prediction-error) log-likelihood
+
+    ℓ(θ) = −½ Σ_{k ≥ k_0} (log 2π s_k + e_k² / s_k),   e_k = z_k − C q̂⁻_k,  s_k = C P⁻_k Cᵀ + R,
+
+over θ = (log R, log q_n, log q_d, log τ) with a deterministic Nelder–Mead search, where (q̂⁻, P⁻)
+come from the Kalman filter of :mod:`eaplan_drake.estimator` (Joseph form; the same arithmetic
+as :func:`~eaplan_drake.estimator.KalmanUpdate` / :func:`~eaplan_drake.estimator.KalmanPredict`,
+inlined for speed and tested against them). The first k_0 samples (one
+period, at most a fifth of the record) are the filter's start-up from a diffuse prior and are left
+out. From then on the filter runs with the steady-state gain (:func:`SteadyStateCovariance`,
+the time-invariant filter's limit; this makes ℓ cheap and is the standard steady-state
+approximation of the exact likelihood).
+
+**Order by a held-out criterion.** :func:`FitPowerModel` fits candidate orders on the first 70 %
+of the training record and keeps the one whose predictions at 1 step, T/4, T/2 and T ahead have
+the smallest mean squared error (summed over the four horizons) on the remaining 30 %. The same
+criterion decides whether the level random walk q_0 is kept (a structural choice like r: the
+likelihood prefers a quickly adapting level, best one step ahead but not always T ahead); the
+chosen structure's noise is then refitted by likelihood on the whole training record.
+
+**Scores.** :func:`ScorePredictions` fits on the first half of a log and scores RMSE and MAE [W]
+of the predictions made from origins in the second half, against three baselines: last value,
+one-period moving average, and the value one period before the target (seasonal naive).
+"""
+
+import dataclasses as dc
+import math
+
+import numpy as np
+
+from eaplan_drake.energy_model import (
+    AperiodicProcessNoise,
+    AugmentedOrder,
+    DiscreteEnergyMatrices,
+    FitFourierSeries,
+    OutputMatrix,
+    StateSize,
+)
+
+__all__ = [
+    "BASELINES",
+    "BaselinePrediction",
+    "FilterPowerSeries",
+    "FitNoise",
+    "FitPowerLog",
+    "FitPowerModel",
+    "FormatScores",
+    "LogFit",
+    "PlotLogFit",
+    "HorizonSteps",
+    "InnovationLogLikelihood",
+    "ORDERS",
+    "NoiseParameters",
+    "PowerModelFit",
+    "PredictAhead",
+    "ScorePredictions",
+    "SteadyStateCovariance",
+    "UniformPowerSeries",
+]
+
+BASELINES = ("last value", "moving average", "seasonal naive")
+"""The three baselines of :func:`ScorePredictions`."""
+
+HORIZON_NAMES = ("1 step", "T/4", "T/2", "T")
+
+
+@dc.dataclass(frozen=True)
+class NoiseParameters:
+    """Noise of the model at the log's step Δt."""
+
+    measurement_noise: float
+    """R [W²]."""
+    process_noise: float
+    """q_n per step Δt on each Fourier state [W²]."""
+    mean_process_noise: float = 0.0
+    """q_0, extra per step Δt on α0 [W²]."""
+    aperiodic_time_constant: float = 0.0
+    """τ [s]; 0: no aperiodic state."""
+    aperiodic_noise: float = 0.0
+    """q_d [W²/s]."""
+
+    def Model(self, order: int):
+        """r, or AugmentedOrder(r, τ) when τ > 0."""
+        if self.aperiodic_time_constant > 0.0:
+            return AugmentedOrder(int(order), self.aperiodic_time_constant)
+        return int(order)
+
+
+def UniformPowerSeries(times, power, time_step: float | None = None):
+    """(t, z) on a uniform grid of step Δt [s] (default: the median spacing) by linear
+    interpolation; non-finite samples are dropped first. Needs increasing times."""
+    t = np.asarray(times, dtype=float).reshape(-1)
+    y = np.asarray(power, dtype=float).reshape(-1)
+    if t.shape != y.shape:
+        raise ValueError(f"times and power must have the same length, got {t.size}, {y.size}")
+    keep = np.isfinite(t) & np.isfinite(y)
+    t, y = t[keep], y[keep]
+    if t.size < 16:
+        raise ValueError(f"power log: needs at least 16 finite samples, got {t.size}")
+    if not np.all(np.diff(t) > 0.0):
+        raise ValueError("power log: times must be strictly increasing")
+    dt = float(np.median(np.diff(t))) if time_step is None else float(time_step)
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"time_step: must be finite and > 0 [s], got {time_step!r}")
+    grid = t[0] + dt * np.arange(int(math.floor((t[-1] - t[0]) / dt + 1e-9)) + 1)
+    return grid, np.interp(grid, t, y)
+
+
+def SteadyStateCovariance(Ad, c, Q, R: float, iterations: int = 60) -> np.ndarray:
+    """P⁻∞ of the time-invariant filter: the stabilising solution of the filter Riccati equation
+    P = A_d P A_dᵀ − A_d P cᵀ (c P cᵀ + R)⁻¹ c P A_dᵀ + Q, by the structure-preserving doubling
+    algorithm (A_0 = A_dᵀ, G_0 = cᵀ R⁻¹ c, H_0 = Q; quadratic convergence, H_k → P)."""
+    A = np.asarray(Ad, dtype=float).T.copy()
+    c = np.reshape(c, -1)
+    G = np.outer(c, c) / float(R)
+    H = np.asarray(Q, dtype=float).copy()
+    eye = np.eye(A.shape[0])
+    for _ in range(iterations):
+        W = eye + G @ H
+        WA = np.linalg.solve(W, A)
+        WG = np.linalg.solve(W, G)
+        H_next = H + A.T @ H @ WA
+        G = G + A @ WG @ A.T
+        A = A @ WA
+        done = np.max(np.abs(H_next - H)) <= 1e-12 * np.max(np.abs(H_next))
+        H = 0.5 * (H_next + H_next.T)
+        if done:
+            break
+    return H
+
+
+def _InitialState(z, time_step: float, model, period: float):
+    """q̂(0): least-squares Fourier fit of the first (up to) two periods (d = 0)."""
+    r = int(model.order) if isinstance(model, AugmentedOrder) else int(model)
+    n = min(z.size, max(2 * r + 2, int(round(2.0 * period / time_step))))
+    t = time_step * np.arange(n)
+    q = FitFourierSeries(t, z[:n], r, period, at_time=0.0)
+    return np.append(q, 0.0) if StateSize(model) > q.size else q
+
+
+def FilterPowerSeries(
+    z, time_step: float, order: int, period: float, noise: NoiseParameters, initial_state=None
+):
+    """Run the steady-state Kalman filter over z (uniform step Δt [s]).
+
+    q̂(0) is the least-squares Fourier fit of the first two periods (so the start-up is short),
+    the gain the steady-state one of (A_d, C, Q, R) (:func:`SteadyStateCovariance`). Returns
+    (q̂ (N×m) filtered states after the update at each k, e (N) innovations [W], s innovation
+    variance [W²]). ``initial_state`` replaces that q̂(0) (m entries).
+    """
+    z = np.asarray(z, dtype=float).reshape(-1)
+    model = noise.Model(order)
+    Ad, _ = DiscreteEnergyMatrices(model, period, time_step)
+    c = OutputMatrix(model)[0]
+    m = c.size
+    qd = np.full(m, float(noise.process_noise))
+    qd[0] += float(noise.mean_process_noise)
+    if isinstance(model, AugmentedOrder):
+        qd[-1] = AperiodicProcessNoise(model, noise.aperiodic_noise, time_step)
+    R = float(noise.measurement_noise)
+    P = SteadyStateCovariance(Ad, c, np.diag(qd), R)
+    u = P @ c
+    s = float(c @ u) + R
+    K = u / s
+    F = Ad - np.outer(Ad @ K, c)  # q⁻ ← A_d (I − K c) q⁻ + A_d K z
+    G = Ad @ K
+    q0 = _InitialState(z, time_step, model, period) if initial_state is None else initial_state
+    n = z.size
+    states = np.empty((n, m))
+    e = np.empty(n)
+    q = q0
+    for j in range(n):
+        ej = z[j] - float(c @ q)
+        e[j] = ej
+        states[j] = q + K * ej
+        q = F @ q + G * z[j]
+    return states, e, s
+
+
+def _BurnIn(n: int, period_steps: int) -> int:
+    return max(1, min(period_steps, n // 5))
+
+
+def InnovationLogLikelihood(
+    z, time_step: float, order: int, period: float, noise: NoiseParameters, initial_state=None
+) -> float:
+    """ℓ(θ) of the module docstring [-] (higher is better)."""
+    _, e, s = FilterPowerSeries(z, time_step, order, period, noise, initial_state)
+    k0 = _BurnIn(e.size, int(round(period / time_step)))
+    e = e[k0:]
+    return float(-0.5 * (e.size * math.log(2.0 * math.pi * s) + np.sum(e * e) / s))
+
+
+def _NelderMead(f, x0, step, max_evals: int = 120, tol: float = 1e-4):
+    """Deterministic Nelder–Mead minimisation of f from x0 (simplex of ``step`` per axis)."""
+    x0 = np.asarray(x0, dtype=float)
+    n = x0.size
+    simplex = [x0] + [x0 + step * np.eye(n)[i] for i in range(n)]
+    values = [f(x) for x in simplex]
+    evals = n + 1
+    while evals < max_evals:
+        order = np.argsort(values, kind="stable")
+        simplex = [simplex[i] for i in order]
+        values = [values[i] for i in order]
+        if abs(values[-1] - values[0]) <= tol * (1.0 + abs(values[0])):
+            break
+        centroid = np.mean(simplex[:-1], axis=0)
+        xr = centroid + (centroid - simplex[-1])
+        fr = f(xr)
+        evals += 1
+        if fr < values[0]:
+            xe = centroid + 2.0 * (centroid - simplex[-1])
+            fe = f(xe)
+            evals += 1
+            simplex[-1], values[-1] = (xe, fe) if fe < fr else (xr, fr)
+        elif fr < values[-2]:
+            simplex[-1], values[-1] = xr, fr
+        else:
+            xc = centroid + 0.5 * (simplex[-1] - centroid)
+            fc = f(xc)
+            evals += 1
+            if fc < values[-1]:
+                simplex[-1], values[-1] = xc, fc
+            else:
+                for i in range(1, n + 1):
+                    simplex[i] = simplex[0] + 0.5 * (simplex[i] - simplex[0])
+                    values[i] = f(simplex[i])
+                    evals += 1
+    best = int(np.argmin(values))
+    return simplex[best], float(values[best])
+
+
+def FitNoise(
+    z,
+    time_step: float,
+    order: int,
+    period: float,
+    aperiodic: bool = True,
+    max_evaluations: int = 120,
+    start: NoiseParameters | None = None,
+    level: bool | float = True,
+) -> tuple[NoiseParameters, float]:
+    """(noise, ℓ): the noise maximising the innovation log-likelihood (module docstring).
+
+    θ = log10 of (R, q_n, q_0, q_d, τ) (q_d, τ only with ``aperiodic``; q_0 searched when
+    ``level`` is True, else fixed: 0 for False, the value for a number); τ in [Δt, 50 T].
+    Nelder–Mead from ``start`` (default: R from the lag-one differences, small q's, τ = 10 s).
+    """
+    z = np.asarray(z, dtype=float).reshape(-1)
+    dt = float(time_step)
+    var = max(float(np.var(z)), 1e-9)
+    tau_lo, tau_hi = dt, 50.0 * float(period)
+    search_level = level is True
+    fixed_level = 0.0 if search_level or level is False else float(level)
+    names = ["R", "q_n"] + (["q_0"] if search_level else []) + (["q_d", "tau"] if aperiodic else [])
+
+    def unpack(x):
+        v = {k: float(10.0**xi) for k, xi in zip(names, x, strict=True)}
+        tau = min(max(v["tau"], tau_lo), tau_hi) if aperiodic else 0.0
+        q_0 = v.get("q_0", fixed_level)
+        return NoiseParameters(v["R"], v["q_n"], q_0, tau, v.get("q_d", 0.0))
+
+    q0 = {}  # q̂(0) depends on the structure only (with or without d), not on θ
+
+    def cost(x):
+        if np.any(np.abs(x) > 15.0):
+            return 1e30
+        noise = unpack(x)
+        if aperiodic not in q0:
+            q0[aperiodic] = _InitialState(z, dt, noise.Model(order), period)
+        ll = InnovationLogLikelihood(z, dt, order, period, noise, q0[aperiodic])
+        return -ll if math.isfinite(ll) else 1e30
+
+    floor = 1e-12 * var
+    if start is None:
+        white = max(0.25 * float(np.var(np.diff(z))), 1e-6 * var)
+        tau0 = min(max(10.0, 2.0 * dt), tau_hi)
+        guess = {"R": white, "q_n": 1e-5 * var * dt, "q_0": 1e-3 * var * dt}
+        guess.update({"q_d": var / tau0, "tau": tau0})
+        step = 1.0
+    else:
+        guess = {
+            "R": start.measurement_noise,
+            "q_n": start.process_noise,
+            "q_0": start.mean_process_noise,
+            "q_d": start.aperiodic_noise,
+            "tau": min(max(start.aperiodic_time_constant, tau_lo), tau_hi),
+        }
+        step = 0.5
+    x0 = [math.log10(max(guess[k], floor)) for k in names]
+    x, f = _NelderMead(cost, x0, step, max_evals=max_evaluations)
+    return unpack(x), -f
+
+
+def HorizonSteps(period: float, time_step: float) -> tuple[int, int, int, int]:
+    """Steps ahead for 1 step, T/4, T/2 and T."""
+    P = max(1, int(round(period / time_step)))
+    return 1, max(1, round(P / 4)), max(1, round(P / 2)), P
+
+
+def PredictAhead(states, order: int, period: float, time_step: float, noise, steps: int):
+    """ŷ_{k+H|k} = C A_dᴴ q̂_k [W] for every filtered state q̂_k (H = ``steps``)."""
+    model = noise.Model(order)
+    Ad, _ = DiscreteEnergyMatrices(model, period, time_step)
+    row = OutputMatrix(model)[0] @ np.linalg.matrix_power(Ad, int(steps))
+    return np.asarray(states) @ row
+
+
+def BaselinePrediction(name: str, z, period_steps: int, steps: int) -> np.ndarray:
+    """Baseline prediction of z_{k+H} made at k (NaN where it needs samples before the log)."""
+    z = np.asarray(z, dtype=float)
+    n, P, H = z.size, int(period_steps), int(steps)
+    out = np.full(n, np.nan)
+    if name == "last value":
+        out[:] = z
+    elif name == "moving average":
+        c = np.concatenate(([0.0], np.cumsum(z)))
+        k = np.arange(P - 1, n)
+        out[k] = (c[k + 1] - c[k + 1 - P]) / P
+    elif name == "seasonal naive":
+        k = np.arange(max(0, P - H), n)
+        out[k] = z[k + H - P]
+    else:
+        raise ValueError(f"baseline: one of {BASELINES}, got {name!r}")
+    return out
+
+
+def _Errors(pred, z, origins, H):
+    err = pred[origins] - z[origins + H]
+    return float(np.sqrt(np.mean(err * err))), float(np.mean(np.abs(err)))
+
+
+@dc.dataclass
+class PowerModelFit:
+    """Result of :func:`FitPowerModel`."""
+
+    order: int
+    """r [-]."""
+    period: float
+    """T [s]."""
+    time_step: float
+    """Δt of the log (after resampling) [s]."""
+    noise: NoiseParameters
+    """Fitted noise at Δt."""
+    log_likelihood: float
+    """ℓ on the training record [-]."""
+    mean_power: float
+    """Mean of the training record [W]."""
+    candidates: list
+    """(order r, level intensity q_0 [W²/step], held-out score [W²]) of every candidate tried."""
+
+    def ScenarioFragment(self, estimator_rate: float = 100.0) -> str:
+        """YAML for ``simulate`` with the fitted model (energy_model and estimator keys).
+
+        q_n and q_0 are random-walk variances per step, rescaled to the estimator's step 1/rate;
+        R is the log's per-sample noise (also the simulated sensor's σ = √R); τ and q_d are rate
+        independent.
+        """
+        scale = (1.0 / estimator_rate) / self.time_step
+        qn = self.noise.process_noise * scale
+        tau = self.noise.aperiodic_time_constant
+        lines = [
+            "# fitted by eaplan-drake fit (innovation likelihood; order by held-out error)",
+            "sensor:",
+            f"  noise_std: {_YamlFloat(math.sqrt(self.noise.measurement_noise))}",
+            "energy_model:",
+            f"  order: {self.order}",
+            f"  initial_period: {_YamlFloat(self.period)}",
+            f"  initial_mean_power: {_YamlFloat(max(self.mean_power, 0.0))}",
+            "estimator:",
+            f"  process_noise: {_YamlFloat(qn)}",
+            f"  measurement_noise: {_YamlFloat(self.noise.measurement_noise)}",
+            f"  mean_process_noise: {_YamlFloat(self.noise.mean_process_noise * scale)}",
+        ]
+        if tau > 0.0:
+            lines += [
+                f"  aperiodic_time_constant: {_YamlFloat(tau)}",
+                f"  aperiodic_noise: {_YamlFloat(self.noise.aperiodic_noise)}",
+            ]
+        return "\n".join(lines) + "\n"
+
+
+def _YamlFloat(x: float) -> str:
+    """A float YAML 1.1 reads as a float (a dot, a signed exponent), ``.inf`` for ∞."""
+    x = float(x)
+    if math.isinf(x):
+        return ".inf" if x > 0 else "-.inf"
+    if x == 0.0 or 1e-3 <= abs(x) < 1e6:
+        text = f"{x:.6g}"
+        return text if "." in text else text + ".0"
+    return f"{x:.6e}"
+
+
+def _HeldOutScore(z, dt, order, period, noise, start: int) -> float:
+    states, _, _ = FilterPowerSeries(z, dt, order, period, noise)
+    total = 0.0
+    for H in HorizonSteps(period, dt):
+        origins = np.arange(start, z.size - H)
+        if origins.size == 0:
+            continue
+        pred = PredictAhead(states, order, period, dt, noise, H)
+        total += _Errors(pred, z, origins, H)[0] ** 2
+    return total
+
+
+ORDERS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
+"""Candidate Fourier orders of :func:`FitPowerModel` (those with 2r + 1 ≤ samples per period)."""
+
+
+def FitPowerModel(
+    z,
+    time_step: float,
+    period: float,
+    orders=ORDERS,
+    aperiodic: bool = True,
+    max_evaluations: int = 120,
+) -> PowerModelFit:
+    """Fit order and noise to a uniform power series z [W] (step Δt [s], period T [s]).
+
+    The order is chosen among ``orders`` (those with 2r + 1 ≤ T/Δt, in increasing order, until
+    two in a row do not improve) by the held-out criterion of the module docstring, then whether
+    the level random walk q_0 helps (held out too); each noise search starts from the previous
+    optimum. ``aperiodic`` adds the AR(1) load state (False: the paper's model).
+    """
+    z = np.asarray(z, dtype=float).reshape(-1)
+    if not (math.isfinite(period) and period > 0.0):
+        raise ValueError(f"period: must be finite and > 0 [s], got {period!r}")
+    P = int(round(period / time_step))
+    if z.size < 2 * P + 8:
+        raise ValueError(
+            f"power log: {z.size} samples cover less than two periods of {period:g} s "
+            f"at {time_step:g} s; record longer or give a shorter period"
+        )
+    split = int(0.7 * z.size)
+    candidates = []
+    best = None
+    noise = None
+    worse = 0
+    for r in sorted(int(r) for r in orders):
+        if 2 * r + 1 > P:  # more harmonics than one period of samples resolves
+            continue
+        budget = max_evaluations if noise is None else max_evaluations // 3
+        noise, _ = FitNoise(z[:split], time_step, r, period, aperiodic, budget, noise)
+        score = _HeldOutScore(z, time_step, r, period, noise, split)
+        candidates.append((r, noise.mean_process_noise, score))
+        if best is None or score < best[2]:
+            best, worse = (r, noise.mean_process_noise, score, noise), 0
+        else:
+            worse += 1
+            if worse == 2:  # two larger orders in a row did not help: stop
+                break
+    if best is None:
+        raise ValueError(f"orders: no candidate in {list(orders)} fits a period of {P} samples")
+    # Whether the level random walk q_0 helps, by the same held-out criterion.
+    r = best[0]
+    fixed, _ = FitNoise(
+        z[:split], time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=False
+    )
+    score = _HeldOutScore(z, time_step, r, period, fixed, split)
+    candidates.append((r, 0.0, score))
+    level = score >= best[2]
+    if not level:
+        best = (r, 0.0, score, fixed)
+    noise, ll = FitNoise(
+        z, time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=level
+    )
+    return PowerModelFit(r, float(period), float(time_step), noise, ll, float(z.mean()), candidates)
+
+
+def ScorePredictions(z, time_step: float, period: float, fit: PowerModelFit):
+    """RMSE and MAE [W] at 1 step, T/4, T/2, T ahead from origins in the second half of z.
+
+    The filter with ``fit``'s model runs over the whole record (it has seen only samples up to
+    each origin). Returns {predictor: {horizon name: (RMSE, MAE)}}, predictors "model" and
+    :data:`BASELINES`.
+    """
+    z = np.asarray(z, dtype=float).reshape(-1)
+    states, _, _ = FilterPowerSeries(z, time_step, fit.order, period, fit.noise)
+    P = max(1, int(round(period / time_step)))
+    table = {name: {} for name in ("model",) + BASELINES}
+    for label, H in zip(HORIZON_NAMES, HorizonSteps(period, time_step), strict=True):
+        origins = np.arange(max(z.size // 2, P), z.size - H)
+        if origins.size == 0:
+            raise ValueError(f"power log: too short to score {label} ahead in its second half")
+        pred = PredictAhead(states, fit.order, period, time_step, fit.noise, H)
+        table["model"][label] = _Errors(pred, z, origins, H)
+        for name in BASELINES:
+            table[name][label] = _Errors(BaselinePrediction(name, z, P, H), z, origins, H)
+    return table
+
+
+@dc.dataclass
+class LogFit:
+    """Everything :func:`FitPowerLog` found for one log."""
+
+    fit: PowerModelFit
+    """Model fitted on the first half."""
+    scores: dict
+    """:func:`ScorePredictions` on the second half."""
+    times: np.ndarray
+    """Uniform grid t [s]."""
+    power: np.ndarray
+    """z on that grid [W]."""
+    period_source: str
+    """Where T came from (given, or the estimate and its confidence)."""
+
+
+def FitPowerLog(
+    times,
+    power,
+    period: float | None = None,
+    orders=ORDERS,
+    aperiodic: bool = True,
+    min_confidence: float = 0.5,
+) -> LogFit:
+    """Fit on the first half of a power log and score on the second (module docstring).
+
+    T is ``period`` [s] when given (the plan's period: ground truth for the motion part), else
+    :func:`~eaplan_drake.energy_model.EstimatePeriodWithConfidence`; a log without a clear
+    period raises ValueError saying so (give the period).
+    """
+    from eaplan_drake.energy_model import EstimatePeriodWithConfidence
+
+    t, z = UniformPowerSeries(times, power)
+    dt = float(t[1] - t[0])
+    if period is None:
+        estimate = EstimatePeriodWithConfidence(t, z, min_confidence=min_confidence)
+        if estimate.period is None:
+            raise ValueError(f"{estimate.message}; give the plan's period (--period SECONDS)")
+        period, source = float(estimate.period), f"estimated: {estimate.message}"
+    else:
+        period = float(period)
+        if not (math.isfinite(period) and period > 0.0):
+            raise ValueError(f"--period: must be finite and > 0 [s], got {period!r}")
+        source = "given"
+    half = z.size // 2
+    fit = FitPowerModel(z[:half], dt, period, orders, aperiodic)
+    return LogFit(fit, ScorePredictions(z, dt, period, fit), t, z, source)
+
+
+def FormatScores(scores: dict) -> str:
+    """The score table as text: RMSE / MAE [W] per predictor and horizon."""
+    horizons = list(next(iter(scores.values())))
+    lines = [f"{'predictor':16s}" + "".join(f"{h:>16s}" for h in horizons)]
+    for name, row in scores.items():
+        lines.append(
+            f"{name:16s}" + "".join(f"{row[h][0]:8.3f} /{row[h][1]:6.3f}" for h in horizons)
+        )
+    return "\n".join(lines) + "\n(RMSE / MAE [W], origins in the second half, fit on the first)"
+
+
+def PlotLogFit(result: LogFit):
+    """Figure: RMSE per horizon of the model and the baselines; the scored half with the model's
+    T/4-ahead prediction."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fit, scores = result.fit, result.scores
+    fig, (a, b) = plt.subplots(2, 1, figsize=(9, 6.5))
+    horizons = list(scores["model"])
+    x = np.arange(len(horizons))
+    width = 0.8 / len(scores)
+    for i, (name, row) in enumerate(scores.items()):
+        a.bar(x + (i - 1.5) * width, [row[h][0] for h in horizons], width, label=name)
+    a.set_xticks(x, horizons)
+    a.set_ylabel("RMSE [W]")
+    a.set_title(f"prediction error, order r = {fit.order}, T = {fit.period:.1f} s")
+    a.legend(fontsize=8)
+    dt = fit.time_step
+    H = HorizonSteps(fit.period, dt)[1]
+    states, _, _ = FilterPowerSeries(result.power, dt, fit.order, fit.period, fit.noise)
+    pred = PredictAhead(states, fit.order, fit.period, dt, fit.noise, H)
+    k = np.arange(result.power.size // 2, result.power.size - H)
+    b.plot(result.times, result.power, color="0.6", lw=0.6, label="measured")
+    b.plot(result.times[k + H], pred[k], color="tab:orange", lw=0.9, label="model, T/4 ahead")
+    b.set_xlabel("t [s]")
+    b.set_ylabel("power [W]")
+    b.legend(fontsize=8)
+    fig.tight_layout()
+    return fig

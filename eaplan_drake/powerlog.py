@@ -1,0 +1,225 @@
+"""Read a recorded power log: time [s] and power [W] (or voltage [V] × current [A]).
+
+Two layouts are recognised:
+
+- **CSV with a header.** Columns are found by name (case-insensitive), or given explicitly:
+  time ``t``, ``time``, ``time_s``, ``timestamp`` (microseconds, the PX4 convention),
+  ``time_us``, ``time_ms``, ``timestamp_us``; power ``power``, ``power_w``, ``p``, ``w``;
+  voltage ``voltage_v``, ``voltage``, ``v``, ``vbat``, ``bat``; current ``current_a``,
+  ``current``, ``i``, ``amp``, ``amps``. A PX4 ``battery_status`` CSV export (ulog2csv:
+  ``timestamp`` [µs], ``voltage_v``, ``current_a``, …) gives power = voltage_v × current_a.
+- **CSV without a header** (Paparazzi logs of the authors): one column is the Paparazzi energy
+  log (``pprz_energy.csv``: power [W] at a fixed time step, 0.5 s by default, see
+  :data:`PAPARAZZI_TIME_STEP`); two or more columns are time [s] first and power [W] last
+  (``pprz_throttle.csv``: t, throttle, W), unless other columns are given by index.
+
+Every problem is one :class:`PowerLogError` naming ``file:line:col`` or the missing column.
+"""
+
+import dataclasses as dc
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["REFERENCE_ENV", "PowerLog", "PowerLogError", "ReadPowerLog", "ReferenceDirectory"]
+
+REFERENCE_ENV = "EAPLAN_REFERENCE_DIR"
+"""Environment variable naming the authors' reference data (default:
+``../shared/reference/seewald2022`` beside the repository)."""
+
+
+def ReferenceDirectory() -> Path:
+    """The reference data directory: ``$EAPLAN_REFERENCE_DIR`` or the default beside the repo
+    (it may not exist; callers skip or say so)."""
+    given = os.environ.get(REFERENCE_ENV)
+    if given:
+        return Path(given)
+    return Path(__file__).resolve().parents[1].parent / "shared" / "reference" / "seewald2022"
+
+
+_TIME_NAMES = {
+    "t": 1.0,
+    "time": 1.0,
+    "time_s": 1.0,
+    "t_s": 1.0,
+    "seconds": 1.0,
+    "timestamp": 1e-6,
+    "timestamp_us": 1e-6,
+    "time_us": 1e-6,
+    "time_ms": 1e-3,
+    "timestamp_ms": 1e-3,
+}
+_POWER_NAMES = ("power", "power_w", "p", "p_w", "w", "watts")
+_VOLTAGE_NAMES = ("voltage_v", "voltage", "v", "vbat", "bat", "voltage_filtered_v")
+_CURRENT_NAMES = ("current_a", "current", "i", "amp", "amps", "current_filtered_a")
+PAPARAZZI_TIME_STEP = 0.5
+"""Default step of a one-column Paparazzi energy log [s]: the Opterra ``pprz_energy.csv`` has the
+640 rows of ``pprz_throttle.csv`` from the same flight, stamped every 0.5 s (the authors'
+``scripts/energy/MAIN.m`` assumes 200 ms; give ``time_step`` when it differs)."""
+
+
+class PowerLogError(ValueError):
+    """A power log that cannot be read; the message names the file and line/column or field."""
+
+
+@dc.dataclass
+class PowerLog:
+    """A power series read from a file."""
+
+    times: np.ndarray
+    """t [s], increasing."""
+    power: np.ndarray
+    """y [W]."""
+    source: str
+    """How it was read (layout and columns), one line."""
+
+
+def _Index(header: list[str], given, names, path: Path, what: str, option: str):
+    """Column index: the given name/index, else the first recognised name, else None."""
+    lower = [h.strip().lower() for h in header]
+    if given is not None and str(given) != "":
+        g = str(given).strip()
+        if g.lower() in lower:
+            return lower.index(g.lower())
+        if g.lstrip("-").isdigit() and -len(header) <= int(g) < len(header):
+            return int(g) % len(header)
+        raise PowerLogError(
+            f"{path}:1: {option} {g!r} is not a column (columns: {', '.join(header)})"
+        )
+    for n in names:
+        if n in lower:
+            return lower.index(n)
+    return None
+
+
+def _Parse(path: Path, lines: list[str], first: int, columns: int) -> np.ndarray:
+    data = np.empty((len(lines) - first, columns))
+    row = 0
+    for i in range(first, len(lines)):
+        text = lines[i].strip()
+        if not text:
+            continue
+        cells = text.split(",")
+        if len(cells) != columns:
+            raise PowerLogError(
+                f"{path}:{i + 1}:1: expected {columns} comma-separated values, got {len(cells)}"
+            )
+        col = 1
+        for j, cell in enumerate(cells):
+            try:
+                data[row, j] = float(cell) if cell.strip() else math.nan
+            except ValueError:
+                raise PowerLogError(
+                    f"{path}:{i + 1}:{col}: not a number: {cell.strip()[:40]!r}"
+                ) from None
+            col += len(cell) + 1
+        row += 1
+    return data[:row]
+
+
+def ReadPowerLog(
+    path,
+    time_column=None,
+    power_column=None,
+    voltage_column=None,
+    current_column=None,
+    time_scale: float | None = None,
+    time_step: float | None = None,
+) -> PowerLog:
+    """Read ``path`` (see the module docstring for the layouts and recognised names).
+
+    Args:
+        time_column, power_column, voltage_column, current_column: a column name (header) or a
+            0-based index; default: recognised by name (header) or by position (no header).
+        time_scale: seconds per unit of the time column (default: from its name; 1 otherwise).
+        time_step: step [s] of a log without a time column (one-column Paparazzi energy log;
+            default :data:`PAPARAZZI_TIME_STEP`).
+
+    Rows with a non-finite time or power are dropped; the rest must have increasing times.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as e:
+        raise PowerLogError(f"{path}: cannot read: {e}") from None
+    lines = text.splitlines()
+    first = next((i for i, s in enumerate(lines) if s.strip()), None)
+    if first is None:
+        raise PowerLogError(f"{path}: empty file")
+    head = [c.strip() for c in lines[first].split(",")]
+
+    def numeric(cell: str) -> bool:
+        try:
+            float(cell)
+            return True
+        except ValueError:
+            return False
+
+    has_header = not all(numeric(c) for c in head if c)
+    if time_step is not None and not (math.isfinite(time_step) and time_step > 0.0):
+        raise PowerLogError(f"--time-step: must be finite and > 0 [s], got {time_step!r}")
+    if has_header:
+        data = _Parse(path, lines, first + 1, len(head))
+        if data.shape[0] == 0:
+            raise PowerLogError(f"{path}: a header but no data rows")
+        it = _Index(head, time_column, list(_TIME_NAMES), path, "time", "--time-column")
+        if it is None and time_step is None:
+            raise PowerLogError(
+                f"{path}:1: no time column (recognised: {', '.join(_TIME_NAMES)}); give "
+                f"--time-column or --time-step"
+            )
+        ip = _Index(head, power_column, _POWER_NAMES, path, "power", "--power-column")
+        iv = ic = None
+        if ip is None:
+            iv = _Index(head, voltage_column, _VOLTAGE_NAMES, path, "voltage", "--voltage-column")
+            ic = _Index(head, current_column, _CURRENT_NAMES, path, "current", "--current-column")
+            if iv is None or ic is None:
+                raise PowerLogError(
+                    f"{path}:1: no power column, nor voltage and current columns (recognised: "
+                    f"{', '.join(_POWER_NAMES)}; {', '.join(_VOLTAGE_NAMES[:3])} × "
+                    f"{', '.join(_CURRENT_NAMES[:3])}); give --power-column or "
+                    f"--voltage-column and --current-column"
+                )
+        names = head
+    else:
+        data = _Parse(path, lines, first, len(head))
+        names = [f"column {j}" for j in range(len(head))]
+        if len(head) == 1:
+            it, ip, iv, ic = None, 0, None, None
+            if time_step is None:
+                time_step = PAPARAZZI_TIME_STEP
+        else:
+            it = _Index(names, time_column, (), path, "time", "--time-column")
+            ip = _Index(names, power_column, (), path, "power", "--power-column")
+            iv = _Index(names, voltage_column, (), path, "voltage", "--voltage-column")
+            ic = _Index(names, current_column, (), path, "current", "--current-column")
+            it = 0 if it is None and time_step is None else it
+            if ip is None and (iv is None or ic is None):
+                ip = len(head) - 1
+    if ip is not None:
+        y = data[:, ip]
+        what = f"power = {names[ip]}"
+    else:
+        y = data[:, iv] * data[:, ic]
+        what = f"power = {names[iv]} × {names[ic]}"
+    if it is not None:
+        name = names[it].strip().lower()
+        scale = time_scale if time_scale is not None else _TIME_NAMES.get(name, 1.0)
+        t = data[:, it] * float(scale)
+        what = f"time = {names[it]} (× {scale:g} s), {what}"
+    else:
+        t = float(time_step) * np.arange(data.shape[0])
+        what = f"time = row × {time_step:g} s, {what}"
+    keep = np.isfinite(t) & np.isfinite(y)
+    t, y = t[keep], y[keep]
+    if t.size < 16:
+        raise PowerLogError(f"{path}: {t.size} usable rows, need at least 16")
+    bad = np.flatnonzero(np.diff(t) <= 0.0)
+    if bad.size:
+        row = int(np.flatnonzero(keep)[bad[0] + 1])
+        line = first + row + (2 if has_header else 1)
+        raise PowerLogError(f"{path}:{line}: time does not increase ({t[bad[0] + 1]:g} s)")
+    layout = "header" if has_header else "no header"
+    return PowerLog(times=t - t[0], power=y, source=f"{path.name} ({layout}): {what}")

@@ -1,0 +1,227 @@
+"""Tests of the power-log reader, the model fit and ``eaplan-drake fit``."""
+
+import math
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eaplan_drake.cli import main
+from eaplan_drake.energy_model import AugmentedOrder, DiscreteEnergyMatrices, OutputMatrix
+from eaplan_drake.estimator import KalmanPredict, KalmanUpdate
+from eaplan_drake.fit import (
+    BaselinePrediction,
+    FilterPowerSeries,
+    FitNoise,
+    FitPowerModel,
+    HorizonSteps,
+    NoiseParameters,
+    PowerModelFit,
+    ScorePredictions,
+    SteadyStateCovariance,
+    UniformPowerSeries,
+)
+from eaplan_drake.params import LoadScenario
+from eaplan_drake.powerlog import REFERENCE_ENV, PowerLogError, ReadPowerLog, ReferenceDirectory
+
+DATA = resources.files("eaplan_drake") / "data"
+T = 46.0
+
+
+def _synthetic(seed, tau=15.0, sigma=3.0, noise=0.5, dt=0.5, duration=1200.0):
+    """Periodic power + AR(1) load (τ, σ) + white noise, on a uniform grid."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration, dt)
+    w = 2.0 * math.pi / T
+    y = 30.0 + 3.0 * np.cos(w * t) + 2.0 * np.sin(2 * w * t) + np.cos(3 * w * t + 1.0)
+    phi = math.exp(-dt / tau)
+    e = rng.normal(0.0, sigma * math.sqrt(1.0 - phi * phi), t.size)
+    d = np.zeros(t.size)
+    for k in range(1, t.size):
+        d[k] = phi * d[k - 1] + e[k]
+    return t, y + d + rng.normal(0.0, noise, t.size)
+
+
+def test_steady_state_covariance_solves_the_riccati_equation():
+    model = AugmentedOrder(2, 10.0)
+    Ad, _ = DiscreteEnergyMatrices(model, T, 0.5)
+    c = OutputMatrix(model)[0]
+    Q = np.diag([1e-3, 1e-4, 1e-4, 1e-4, 1e-4, 0.2])
+    R = 0.25
+    P = SteadyStateCovariance(Ad, c, Q, R)
+    u = P @ c
+    residual = Ad @ (P - np.outer(u, u) / (c @ u + R)) @ Ad.T + Q - P
+    assert np.max(np.abs(residual)) < 1e-10 * np.max(np.abs(P))
+    assert np.all(np.linalg.eigvalsh(P) > 0.0)
+
+
+def test_filter_equals_the_estimator_kalman_functions_from_the_steady_state():
+    """FilterPowerSeries (steady-state gain) = KalmanUpdate/KalmanPredict started at P∞."""
+    t, z = _synthetic(1, duration=200.0)
+    noise = NoiseParameters(0.3, 1e-5, 1e-4, 15.0, 1.0)
+    model = noise.Model(3)
+    Ad, _ = DiscreteEnergyMatrices(model, T, 0.5)
+    C = OutputMatrix(model)
+    Q = np.diag([1e-5 + 1e-4] + [1e-5] * 6 + [0.5 * 1.0 * 15.0 * (1 - math.exp(-1 / 15.0))])
+    q0 = np.array([30.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    states, e, s = FilterPowerSeries(z, 0.5, 3, T, noise, initial_state=q0)
+    P = SteadyStateCovariance(Ad, C[0], Q, 0.3)
+    q = q0
+    for k in range(z.size):
+        assert e[k] == pytest.approx(z[k] - float(C[0] @ q), abs=1e-9)
+        q, P = KalmanUpdate(q, P, C, 0.3, z[k])
+        np.testing.assert_allclose(states[k], q, rtol=0.0, atol=1e-8)
+        q, P = KalmanPredict(q, P, Ad, Q)
+
+
+def test_fit_noise_recovers_the_aperiodic_load_and_sensor_noise():
+    """τ = 10 s, σ_d = 3 W, σ_v = 0.5 W from 2400 samples (the paper model's Q on q free)."""
+    _, z = _synthetic(2, tau=10.0, sigma=3.0, noise=0.5, dt=1.0, duration=2400.0)
+    noise, ll = FitNoise(z, 1.0, 3, T, max_evaluations=150, level=False)
+    assert math.isfinite(ll)
+    assert noise.aperiodic_time_constant == pytest.approx(10.0, rel=0.2)
+    stationary = 0.5 * noise.aperiodic_noise * noise.aperiodic_time_constant
+    assert math.sqrt(stationary) == pytest.approx(3.0, rel=0.1)
+    assert math.sqrt(noise.measurement_noise) == pytest.approx(0.5, rel=0.15)
+    assert noise.mean_process_noise == 0.0
+
+
+def test_baselines_on_analytic_signals():
+    z = np.arange(100.0)  # a ramp: last value misses by H, the moving average by (P − 1)/2 + H
+    P, H = 10, 3
+    k = 50
+    assert BaselinePrediction("last value", z, P, H)[k] == 50.0
+    assert BaselinePrediction("moving average", z, P, H)[k] == pytest.approx(np.mean(z[41:51]))
+    assert BaselinePrediction("seasonal naive", z, P, H)[k] == z[k + H - P]
+    assert np.isnan(BaselinePrediction("moving average", z, P, H)[P - 2])
+    periodic = np.tile(np.arange(P, dtype=float), 10)
+    pred = BaselinePrediction("seasonal naive", periodic, P, H)
+    np.testing.assert_array_equal(pred[P:-H], periodic[P + H :])
+    with pytest.raises(ValueError, match="baseline"):
+        BaselinePrediction("oracle", z, P, H)
+    assert HorizonSteps(46.0, 0.5) == (1, 23, 46, 92)
+
+
+def test_model_beats_every_baseline_on_periodic_plus_ar1_load():
+    """The issue's synthetic target at T/4 and T/2 (≥ 10 % better) and within 10 % at 1 step."""
+    _, z = _synthetic(3, tau=15.0, sigma=3.0, duration=900.0)
+    fit = FitPowerModel(z[: z.size // 2], 0.5, T, orders=(2, 3), max_evaluations=100)
+    scores = ScorePredictions(z, 0.5, T, fit)
+    for h in ("T/4", "T/2"):
+        best = min(scores[b][h][0] for b in ("last value", "moving average", "seasonal naive"))
+        assert scores["model"][h][0] <= 0.9 * best, (h, scores)
+    assert scores["model"]["1 step"][0] <= 1.1 * scores["last value"]["1 step"][0]
+
+
+def test_uniform_series_and_its_errors():
+    t, z = UniformPowerSeries(
+        [0.0, 1.0, 2.5, 3.0] * 1 + list(np.arange(4.0, 20.0)), np.arange(20.0)
+    )
+    assert np.allclose(np.diff(t), 1.0)
+    with pytest.raises(ValueError, match="increasing"):
+        UniformPowerSeries(np.r_[np.arange(20.0), 5.0], np.arange(21.0))
+    with pytest.raises(ValueError, match="at least 16"):
+        UniformPowerSeries(np.arange(5.0), np.arange(5.0))
+    with pytest.raises(ValueError, match="two periods"):
+        FitPowerModel(np.zeros(50), 1.0, 40.0)
+
+
+def test_read_px4_battery_status_export():
+    with resources.as_file(DATA / "px4_battery_status_example.csv") as path:
+        log = ReadPowerLog(path)
+    raw = np.genfromtxt(str(DATA / "px4_battery_status_example.csv"), delimiter=",", names=True)
+    np.testing.assert_allclose(log.power, raw["voltage_v"] * raw["current_a"])
+    np.testing.assert_allclose(log.times, (raw["timestamp"] - raw["timestamp"][0]) * 1e-6)
+    assert "voltage_v × current_a" in log.source
+
+
+def test_read_paparazzi_energy_log():
+    with resources.as_file(DATA / "opterra_pprz_energy.csv") as path:
+        log = ReadPowerLog(path)
+        assert log.times.size == 640
+        assert log.times[1] == pytest.approx(0.5)
+        assert log.power.mean() == pytest.approx(27.666, abs=1e-3)
+        other = ReadPowerLog(path, time_step=0.2)
+        assert other.times[-1] == pytest.approx(639 * 0.2)
+
+
+def test_read_columns_by_option_and_clear_errors(tmp_path):
+    f = tmp_path / "log.csv"
+    f.write_text("sec,volts,amps\n" + "".join(f"{i},{15 + i % 3},{2 + i % 5}\n" for i in range(30)))
+    with pytest.raises(PowerLogError, match=r"log.csv:1: no time column"):
+        ReadPowerLog(f)
+    log = ReadPowerLog(f, time_column="sec", voltage_column="volts", current_column=2)
+    assert log.power[4] == (15 + 1) * (2 + 4)
+    with pytest.raises(PowerLogError, match=r"--power-column 'watts' is not a column"):
+        ReadPowerLog(f, time_column="sec", power_column="watts")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,power\n0,1\n1,2\n2,x3\n")
+    with pytest.raises(PowerLogError, match=r"bad.csv:4:3: not a number: 'x3'"):
+        ReadPowerLog(bad)
+    empty = tmp_path / "empty.csv"
+    empty.write_text("\n\n")
+    with pytest.raises(PowerLogError, match="empty file"):
+        ReadPowerLog(empty)
+    with pytest.raises(PowerLogError, match="cannot read"):
+        ReadPowerLog(tmp_path / "missing.csv")
+
+
+def test_scenario_fragment_loads_as_a_scenario():
+    fit = PowerModelFit(2, 49.9, 0.5, NoiseParameters(0.01, 1e-6, 1e-4, 16.0, 0.2), 0.0, 24.0, [])
+    s = LoadScenario(data=fit.ScenarioFragment(estimator_rate=100.0))
+    assert s.energy_model.order == 2 and s.energy_model.initial_period == pytest.approx(49.9)
+    assert s.estimator.process_noise == pytest.approx(1e-6 * 0.01 / 0.5)
+    assert s.estimator.mean_process_noise == pytest.approx(1e-4 * 0.01 / 0.5)
+    assert s.estimator.aperiodic_time_constant == pytest.approx(16.0)
+    assert s.estimator.aperiodic_noise == pytest.approx(0.2)
+    assert s.sensor.noise_std == pytest.approx(0.1)
+    walk = PowerModelFit(1, 40.0, 1.0, NoiseParameters(0.01, 1e-6, 0.0, math.inf, 0.2), 0, 5, [])
+    assert math.isinf(LoadScenario(data=walk.ScenarioFragment()).estimator.aperiodic_time_constant)
+
+
+def test_cli_fit_writes_fragment_and_plot(tmp_path, capsys):
+    t, z = _synthetic(4, duration=400.0)
+    log = tmp_path / "flight.csv"
+    log.write_text(
+        "time_s,power_w\n" + "".join(f"{a:.2f},{b:.4f}\n" for a, b in zip(t, z, strict=True))
+    )
+    out = tmp_path / "out"
+    code = main(["fit", str(log), "--period", "46", "--orders", "3", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert code == 0
+    for name in ("model", "last value", "moving average", "seasonal naive", "T/4"):
+        assert name in text
+    assert (out / "fit.png").stat().st_size > 1000
+    assert LoadScenario(filename=out / "fit.yaml").energy_model.order == 3
+
+
+def test_cli_fit_bad_file_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time,power\n0,1\n1,oops\n")
+    assert main(["fit", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"eaplan-drake fit: {bad}:3:3: not a number: 'oops'"]
+    assert not (tmp_path / "o").exists()
+    noise = tmp_path / "noise.csv"
+    rng = np.random.default_rng(0)
+    noise.write_text(
+        "t,p\n" + "".join(f"{i},{v:.3f}\n" for i, v in enumerate(rng.normal(size=400)))
+    )
+    assert main(["fit", str(noise), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no clear period" in err[0] and "--period" in err[0]
+
+
+@pytest.mark.skipif(
+    not ReferenceDirectory().exists(),
+    reason=f"reference data absent (set {REFERENCE_ENV} to the seewald2022 directory)",
+)
+def test_opterra_throttle_log_reads_and_has_the_track_period():
+    from eaplan_drake.energy_model import EstimatePeriodWithConfidence
+
+    log = ReadPowerLog(ReferenceDirectory() / "opterra_flight" / "pprz_throttle.csv")
+    assert log.times[-1] == pytest.approx(319.5)
+    found = EstimatePeriodWithConfidence(log.times, log.power)
+    assert found.period == pytest.approx(49.5, rel=0.03)  # the track repeats every ≈ 49.5 s
+    assert Path(ReferenceDirectory()).is_dir()
