@@ -25,17 +25,14 @@ PAPER_RESULTS = {
 }
 
 
-def _Progress(t: float, soc: float) -> None:
-    print(f"  t = {t:6.0f} s   SoC = {soc:.3f}", file=sys.stderr, flush=True)
-
-
 def _FormatSummary(summary: dict) -> str:
     metric = summary.get("metric")
     planner = summary.get("planner", {})
     infeasible_at = summary.get("first_infeasible_time")
     lines = [
-        f"scenario        {summary['scenario']} (policy {summary.get('policy', '?')})",
-        f"status          {summary['status']}",
+        f"scenario        {summary['scenario']}",
+        f"policy          {summary.get('policy', '?')}",
+        f"status          {summary['status']}: {summary.get('end_reason', '')}",
         f"quality         {summary['quality']:.3f} = mean(½c1~ + ½c2~), "
         f"c1~ {summary['mean_path_parameter_normalised']:.3f}, "
         f"c2~ {summary['mean_computation_parameter_normalised']:.3f}",
@@ -43,9 +40,10 @@ def _FormatSummary(summary: dict) -> str:
         f"reserve {summary['reserve_soc']:.2f})",
         f"duration        {summary['duration']:.1f} s",
         f"metric P        {'fail' if metric is None else f'{metric:.3f}'} (paper's; see README)",
-        f"planner         {planner.get('solves', 0)} steps, {planner.get('failures', 0)} "
-        f"solver fallbacks, {planner.get('infeasible', 0)} infeasible"
+        f"planner         {planner.get('solves', 0)} steps: {planner.get('infeasible', 0)} "
+        "infeasible"
         + (f" (first at {infeasible_at:.1f} s)" if infeasible_at is not None else "")
+        + f", {planner.get('failures', 0)} solver fallbacks"
         + f", median solve {1e3 * (planner.get('median_solve_time') or 0.0):.1f} ms",
         f"wall time       {summary['wall_time']:.1f} s "
         f"({summary['realtime_factor']:.0f}x real time)",
@@ -56,7 +54,9 @@ def _FormatSummary(summary: dict) -> str:
 
 
 def _Simulate(args) -> int:
+    _CheckScenarioName(args.scenario)  # before the slow pydrake import
     from eaplan_drake.plots import SaveFlightPlots
+    from eaplan_drake.progress import FlightProgress, ProgressBar
     from eaplan_drake.simulation import LoadNamedScenario, Simulate
 
     scenario = LoadNamedScenario(args.scenario, [OverrideFromAssignment(a) for a in args.set])
@@ -65,13 +65,35 @@ def _Simulate(args) -> int:
         scenario.name = f"{scenario.name}_{args.policy}"
         scenario.Validate()
     out = Path(args.out) / scenario.name
-    print(f"simulating {scenario.name} ...", file=sys.stderr, flush=True)
-    log = Simulate(scenario, progress=_Progress)
+    bar = ProgressBar(scenario.name)
+    log = Simulate(scenario, progress=FlightProgress(scenario, bar), progress_interval=2.0)
+    bar.Update(1.0)
+    bar.Close(log.summary["end_reason"])
     log.Save(out)
-    png = SaveFlightPlots(log, scenario, out)
+    written = [SaveFlightPlots(log, scenario, out).name]
+    if args.replay:
+        from eaplan_drake.replay import SaveFlightReplay
+
+        written.append(SaveFlightReplay(log, scenario, out / "replay.html").name)
     print(_FormatSummary(log.summary))
-    print(f"log and plots in {out} ({png.name})")
+    print(f"log and plots in {out} ({', '.join(written)})")
     return 0
+
+
+def _CheckScenarioName(name: str) -> None:
+    """The one-line error for a scenario that is neither a file nor a shipped name, without
+    importing pydrake (the same check :func:`~eaplan_drake.simulation.LoadNamedScenario`
+    makes)."""
+    from importlib import resources
+
+    path = Path(name)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        return
+    if not (resources.files("eaplan_drake") / "scenarios" / f"{name}.yaml").is_file():
+        raise ScenarioError(
+            f"{name}: not a YAML file nor a shipped scenario "
+            "(shipped: plan_I, plan_II, plan_i, plan_ii)"
+        )
 
 
 def _Diagram(args) -> int:
@@ -98,6 +120,7 @@ their scenarios) and the two dynamic ones again with the mpc policy."""
 
 def _Compare(args) -> int:
     from eaplan_drake.plots import SaveFlightPlots
+    from eaplan_drake.progress import FlightProgress, ProgressBar
     from eaplan_drake.simulation import LoadNamedScenario, Simulate
 
     scenarios = []
@@ -108,15 +131,26 @@ def _Compare(args) -> int:
             scenario.planner.warmup = PlannerParams().warmup
             scenario.name = f"{name}_{policy}"
         scenarios.append((name, scenario))
-    print(f"simulating {len(scenarios)} flights ...", file=sys.stderr, flush=True)
+    n = len(scenarios)
+    bar = ProgressBar(f"compare: {n} flights")
     if args.jobs != 1:  # the studies' machinery: joblib's loky workers ([sweep] extra)
         try:
             import joblib
         except ImportError:
             raise ScenarioError("--jobs needs the [sweep] extra (joblib)") from None
-        logs = joblib.Parallel(n_jobs=args.jobs)(joblib.delayed(Simulate)(s) for _, s in scenarios)
+        logs = []
+        results = joblib.Parallel(n_jobs=args.jobs, return_as="generator")(
+            joblib.delayed(Simulate)(s) for _, s in scenarios
+        )
+        for i, log in enumerate(results):  # in order: the bar counts finished flights
+            logs.append(log)
+            bar.Update((i + 1) / n, f"{i + 1}/{n} flights done")
     else:
-        logs = [Simulate(s) for _, s in scenarios]
+        logs = []
+        for i, (_, s) in enumerate(scenarios):
+            logs.append(Simulate(s, FlightProgress(s, bar, i, n), progress_interval=5.0))
+    bar.Update(1.0, f"{n}/{n} flights done")
+    bar.Close()
     rows = []
     for (name, scenario), log in zip(scenarios, logs, strict=True):
         if args.out:
@@ -216,6 +250,11 @@ def main(argv=None) -> int:
         choices=POLICIES,
         default="",
         help="fly with this planner policy instead of the scenario's (name gets a suffix)",
+    )
+    p.add_argument(
+        "--replay",
+        action="store_true",
+        help="also write replay.html: a 3-D Meshcat replay that opens offline in a browser",
     )
     p.set_defaults(run=_Simulate)
     p = sub.add_parser("diagram", help="write DOT and SVG of the closed loop and its systems")

@@ -41,6 +41,7 @@ __all__ = [
     "NormaliseParameters",
     "QualityMetric",
     "REFERENCE_SCENARIOS",
+    "EndReason",
     "Simulate",
 ]
 
@@ -165,7 +166,7 @@ def _TimeMean(t: np.ndarray, x: np.ndarray) -> float:
 
 def Simulate(
     scenario: Scenario,
-    progress: Callable[[float, float], None] | None = None,
+    progress: Callable[[float, float, float], None] | None = None,
     progress_interval: float = 60.0,
     *,
     policy: PlannerPolicy | None = None,
@@ -173,7 +174,9 @@ def Simulate(
     """Simulates ``scenario`` until the survey completes, the reserve is reached, the battery
     browns out or ``scenario.simulation.time_limit``; returns the :class:`FlightLog`.
 
-    ``progress(t, soc)`` is called about every ``progress_interval`` simulated seconds.
+    ``progress(t, soc, covered)`` (covered = the survey fraction flown, 1 − coverage_remaining)
+    is called about every ``progress_interval`` simulated seconds
+    (:class:`~eaplan_drake.progress.FlightProgress` draws it).
     ``policy`` replaces the planner policy the scenario names (see
     :func:`~eaplan_drake.diagram.MakeEaplanDiagram`). With ``planner.policy: hindsight`` the
     result is the best flight of :func:`FlyHindsight` (several static flights).
@@ -190,6 +193,7 @@ def Simulate(
     complete_port = diagram.GetOutputPort("mission_complete")
     soc_port = diagram.GetOutputPort("soc")
     brownout_port = diagram.GetOutputPort("brownout")
+    remaining_port = diagram.GetOutputPort("coverage_remaining")
     reserve = scenario.battery.reserve_soc
     state = {"status": STATUS_TIME_LIMIT, "next_progress": progress_interval}
 
@@ -204,7 +208,8 @@ def Simulate(
             t = root_context.get_time()
             if progress is not None and t >= state["next_progress"]:
                 state["next_progress"] += progress_interval
-                progress(t, float(soc_port.Eval(root_context)[0]))
+                covered = 1.0 - float(remaining_port.Eval(root_context)[0])
+                progress(t, float(soc_port.Eval(root_context)[0]), covered)
             return EventStatus.Succeeded()
         return EventStatus.ReachedTermination(diagram, state["status"])
 
@@ -231,12 +236,15 @@ def Simulate(
         reserve,
         completed,
     )
+    remaining = float(log["coverage_remaining"][-1, 0]) if len(log.times) else 1.0
     feasible = log["mission_feasible"][:, 0]
     infeasible_at = np.flatnonzero(feasible < 0.5)
     log.summary = {
         "scenario": scenario.name,
         "policy": stats.get("policy", scenario.planner.policy),
         "status": state["status"],
+        "end_reason": EndReason(state["status"], final_time, scenario, remaining),
+        "coverage_remaining": remaining,
         "completed": completed,
         "duration": final_time,
         "final_soc": final_soc,
@@ -252,6 +260,22 @@ def Simulate(
         "realtime_factor": final_time / wall_time if wall_time > 0 else None,
     }
     return log
+
+
+def EndReason(status: str, time: float, scenario: Scenario, coverage_remaining: float) -> str:
+    """One sentence on why a flight ended (``status`` as in the summary, at ``time`` [s], with
+    the survey fraction ``coverage_remaining`` still to fly)."""
+    left = f"{100 * coverage_remaining:.0f} % of the survey left"
+    if status == STATUS_COMPLETE:
+        return f"survey complete at {time:.1f} s"
+    if status == STATUS_RESERVE:
+        return (
+            f"battery reached the reserve SoC {scenario.battery.reserve_soc:g} at {time:.1f} s, "
+            + left
+        )
+    if status == STATUS_BROWNOUT:
+        return f"battery browned out (load above V²/(4 R_r)) at {time:.1f} s, {left}"
+    return f"time limit {scenario.simulation.time_limit:g} s reached, {left}"
 
 
 def _CollectLog(diagram, context) -> FlightLog:
@@ -301,7 +325,7 @@ def HindsightGrid(scenario: Scenario) -> list[tuple[float, np.ndarray]]:
 
 def FlyHindsight(
     scenario: Scenario,
-    progress: Callable[[float, float], None] | None = None,
+    progress: Callable[[float, float, float], None] | None = None,
     progress_interval: float = 60.0,
 ) -> FlightLog:
     """The best constant (c1, c2) in hindsight on the world of ``scenario`` (wind, faults, seeds).
