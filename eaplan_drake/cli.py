@@ -67,8 +67,7 @@ def _Simulate(args) -> int:
     out = Path(args.out) / scenario.name
     bar = ProgressBar(scenario.name)
     log = Simulate(scenario, progress=FlightProgress(scenario, bar), progress_interval=2.0)
-    bar.Update(1.0)
-    bar.Close(log.summary["end_reason"])
+    bar.Close(log.summary["end_reason"], fraction=1.0)
     log.Save(out)
     written = [SaveFlightPlots(log, scenario, out).name]
     if args.replay:
@@ -149,8 +148,7 @@ def _Compare(args) -> int:
         logs = []
         for i, (_, s) in enumerate(scenarios):
             logs.append(Simulate(s, FlightProgress(s, bar, i, n), progress_interval=5.0))
-    bar.Update(1.0, f"{n}/{n} flights done")
-    bar.Close()
+    bar.Close(f"{n}/{n} flights done", fraction=1.0)
     rows = []
     for (name, scenario), log in zip(scenarios, logs, strict=True):
         if args.out:

@@ -495,8 +495,15 @@ def PlotPolicyComparison(logs: dict, scenario: Scenario):
         ax.set_xlabel("t [s]")
         ax.set_ylabel(ylabel)
         ax.set_title(title)
-        ax.set_ylim(-0.08, 1.25)
-        ax.legend(handles=[*ax.get_legend_handles_labels()[0], *handles], fontsize="small", ncol=2)
+        ax.set_ylim(-0.08, 1.08)
+        ax.legend(
+            handles=[*ax.get_legend_handles_labels()[0], *handles],
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.14),
+            fontsize="small",
+            ncol=2,
+            frameon=False,
+        )
     fig.suptitle(f"policies on one world: {scenario.name} (each flight ends at its X)")
     return fig
 

@@ -112,13 +112,16 @@ class ProgressBar:
     def _Plain(self) -> None:
         print(self.Line(), file=self.stream, flush=True)
 
-    def Close(self, text: str | None = None) -> None:
-        """Draws the final line (and ends it on a terminal)."""
+    def Close(self, text: str | None = None, fraction: float | None = None) -> None:
+        """Draws the final line (and ends it on a terminal), with ``text`` and ``fraction``
+        when given."""
         if self._closed:
             return
         self._closed = True
         if text is not None:
             self.text = text
+        if fraction is not None:
+            self.fraction = min(1.0, max(self.fraction, float(fraction)))
         if self.tty:
             self.stream.write("\r" + self.Line() + "\x1b[K\n")
             self.stream.flush()
@@ -142,8 +145,8 @@ class FlightProgress:
 
     def __call__(self, t: float, soc: float, covered: float) -> None:
         f = FlightFraction(covered, soc, self.initial_soc, self.reserve_soc)
-        flight = f" {self.name} ({self.index + 1}/{self.count})" if self.count > 1 else ""
+        flight = f"{self.name} ({self.index + 1}/{self.count}) " if self.count > 1 else ""
         self.bar.Update(
             (self.index + f) / self.count,
-            f"{flight} t = {t:4.0f} s, survey {100 * covered:3.0f} % covered, SoC {soc:.3f}",
+            f"{flight}t = {t:4.0f} s, survey {100 * covered:3.0f} % covered, SoC {soc:.3f}",
         )
