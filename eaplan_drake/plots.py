@@ -246,11 +246,19 @@ def _WindArrow(ax, scenario: Scenario) -> None:
 # --- the panels -------------------------------------------------------------------------------
 
 
-def PlotPath(ax, log: FlightLog, scenario: Scenario, colour_by: str = "path") -> None:
+def PlotPath(
+    ax,
+    log: FlightLog,
+    scenario: Scenario,
+    colour_by: str = "path",
+    legend: bool = True,
+    colorbar: bool = True,
+):
     """Flown path over the survey polygon, coloured by the normalised path parameter c̃1
     (``colour_by="path"``) or the quality ½c̃1 + ½c̃2 (``"quality"``); the end point with its
-    status, the part of the area left uncovered when the survey did not complete, and the wind
-    arrow in a band above the flown area."""
+    status, the part of the area left uncovered (hatched) when the survey did not complete, and
+    the wind arrow in a band above the flown area. Returns the path's ``LineCollection`` (for a
+    shared colour bar)."""
     p = log["position"]
     poly = np.asarray(scenario.coverage.polygon, dtype=float)
     DrawSurveyArea(ax, poly, p[0])
@@ -264,7 +272,8 @@ def PlotPath(ax, log: FlightLog, scenario: Scenario, colour_by: str = "path") ->
     lc = LineCollection(segments, cmap="viridis", norm=plt.Normalize(0.0, 1.0), linewidth=1.2)
     lc.set_array(value[:-1])
     ax.add_collection(lc)
-    ax.figure.colorbar(lc, ax=ax, label=label, shrink=0.8)
+    if colorbar:
+        ax.figure.colorbar(lc, ax=ax, label=label, shrink=0.8)
     handles = [
         Patch(color="0.92", label="survey area"),
         Line2D([], [], color=plt.get_cmap("viridis")(0.6), lw=1.2, label="flown path"),
@@ -306,15 +315,17 @@ def PlotPath(ax, log: FlightLog, scenario: Scenario, colour_by: str = "path") ->
     ax.set_xlim(lo[0] - 0.03 * span[0], hi[0] + 0.03 * span[0])
     ax.set_ylim(lo[1] - 0.04 * span[1], hi[1] + 0.16 * span[1])
     _WindArrow(ax, scenario)
-    ax.legend(
-        handles=handles,
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.1),
-        fontsize="small",
-        ncol=3,
-        frameon=False,
-    )
+    if legend:
+        ax.legend(
+            handles=handles,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.1),
+            fontsize="small",
+            ncol=3,
+            frameon=False,
+        )
     ax.set_title("path")
+    return lc
 
 
 def PlotPower(ax, log: FlightLog, scenario: Scenario | None = None) -> None:
@@ -460,8 +471,8 @@ def PlotPolicyComparison(logs: dict, scenario: Scenario):
     if not names:
         raise ValueError("PlotPolicyComparison: no flights given")
     n = len(names)
-    fig = plt.figure(figsize=(max(12.0, 4.2 * n), 10), layout="constrained")
-    top, bottom = fig.subfigures(2, 1, height_ratios=[1.1, 1.0])
+    fig = plt.figure(figsize=(max(13.0, 4.6 * n), 10), layout="constrained")
+    top, bottom = fig.subfigures(2, 1, height_ratios=[1.0, 1.0])
     path_axes = top.subplots(1, n, squeeze=False)[0]
     ax_soc, ax_c1, ax_c2 = bottom.subplots(1, 3)
     colors = plt.get_cmap("tab10")
@@ -469,7 +480,9 @@ def PlotPolicyComparison(logs: dict, scenario: Scenario):
     table = LoadComputationTable(scenario.computation.table)
     for i, name in enumerate(names):
         log = logs[name]
-        PlotPath(path_axes[i], log, scenario, colour_by="quality")
+        lc = PlotPath(
+            path_axes[i], log, scenario, colour_by="quality", legend=False, colorbar=False
+        )
         s = log.summary
         path_axes[i].set_title(
             f"{name}: {s.get('status', '?')}, quality {s.get('quality', float('nan')):.3f}",
@@ -485,6 +498,7 @@ def PlotPolicyComparison(logs: dict, scenario: Scenario):
         offset = -0.012 * i
         ax_c1.step(t, c1n + offset, where="post", color=colors(i), lw=1.3, label=name)
         ax_c2.step(t, c2n + offset, where="post", color=colors(i), lw=1.3, label=name)
+    top.colorbar(lc, ax=path_axes, label="quality ½c̃1 + ½c̃2", shrink=0.8)
     ax_soc.axhline(scenario.battery.reserve_soc, color="tab:red", ls="--", label="reserve")
     for ax, ylabel, title in (
         (ax_soc, "b [-]", "battery"),
@@ -504,7 +518,9 @@ def PlotPolicyComparison(logs: dict, scenario: Scenario):
             ncol=2,
             frameon=False,
         )
-    fig.suptitle(f"policies on one world: {scenario.name} (each flight ends at its X)")
+    fig.suptitle(
+        f"policies on one world: {scenario.name} (dot: start, X: end, hatched: not covered)"
+    )
     return fig
 
 
