@@ -1,7 +1,8 @@
 """Progress of flights on the command line: survey covered, SoC and an ETA.
 
-A flight ends when the survey is covered or the battery reaches its reserve, whichever comes
-first, so its progress is the larger of the two fractions (:func:`FlightFraction`). The ETA is
+A flight ends when the survey is covered, the battery reaches its reserve or the time limit
+comes, whichever is first, so its progress is the largest of the three fractions
+(:func:`FlightFraction`). The ETA is
 wall-clock time (elapsed × remaining / done): it is for the person waiting and never enters a
 flight's result.
 
@@ -19,12 +20,19 @@ from collections.abc import Callable
 __all__ = ["FlightFraction", "FlightProgress", "FormatDuration", "ProgressBar"]
 
 
-def FlightFraction(covered: float, soc: float, initial_soc: float, reserve_soc: float) -> float:
-    """How far a flight is towards its end, in [0, 1]: the larger of the survey fraction
-    ``covered`` and the battery fraction used towards the reserve,
-    (b0 − b) / (b0 − b_reserve)."""
+def FlightFraction(
+    covered: float,
+    soc: float,
+    initial_soc: float,
+    reserve_soc: float,
+    t: float = 0.0,
+    time_limit: float = math.inf,
+) -> float:
+    """How far a flight is towards its end, in [0, 1]: the largest of the survey fraction
+    ``covered``, the battery fraction used towards the reserve (b0 − b) / (b0 − b_reserve) and
+    the time fraction t / time_limit (each an end of the flight)."""
     used = (initial_soc - soc) / (initial_soc - reserve_soc) if initial_soc > reserve_soc else 1.0
-    value = max(covered, used)
+    value = max(covered, used, t / time_limit)
     return min(1.0, max(0.0, value)) if math.isfinite(value) else 0.0
 
 
@@ -139,12 +147,13 @@ class FlightProgress:
         self.name = scenario.name
         self.initial_soc = scenario.battery.initial_soc
         self.reserve_soc = scenario.battery.reserve_soc
+        self.time_limit = scenario.simulation.time_limit
         self.bar = bar
         self.index = index
         self.count = count
 
     def __call__(self, t: float, soc: float, covered: float) -> None:
-        f = FlightFraction(covered, soc, self.initial_soc, self.reserve_soc)
+        f = FlightFraction(covered, soc, self.initial_soc, self.reserve_soc, t, self.time_limit)
         flight = f"{self.name} ({self.index + 1}/{self.count}) " if self.count > 1 else ""
         self.bar.Update(
             (self.index + f) / self.count,

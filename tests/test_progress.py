@@ -17,12 +17,13 @@ from eaplan_drake.progress import FlightFraction, FlightProgress, FormatDuration
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_flight_fraction_is_the_nearer_of_survey_and_reserve():
+def test_flight_fraction_is_the_nearest_of_survey_reserve_and_time_limit():
     assert FlightFraction(0.25, 1.0, 1.0, 0.3) == 0.25
     assert FlightFraction(0.25, 0.65, 1.0, 0.3) == pytest.approx(0.5)  # half the usable charge
     assert FlightFraction(1.2, 1.0, 1.0, 0.3) == 1.0
     assert FlightFraction(0.0, 0.2, 1.0, 0.3) == 1.0
     assert FlightFraction(float("nan"), float("nan"), 1.0, 0.3) == 0.0
+    assert FlightFraction(0.1, 1.0, 1.0, 0.3, t=30.0, time_limit=40.0) == pytest.approx(0.75)
 
 
 def test_format_duration():
