@@ -155,6 +155,17 @@ def _Compare(args) -> int:
             log.Save(Path(args.out) / scenario.name)
             SaveFlightPlots(log, scenario, Path(args.out) / scenario.name)
         rows.append((scenario.name, log.summary, PAPER_RESULTS[name]))
+    if args.out:  # the same world flown by several policies, side by side
+        from eaplan_drake.plots import SavePolicyComparison
+
+        for base in dict.fromkeys(name for name, _ in scenarios):
+            flights = [(s, log) for (n, s), log in zip(scenarios, logs, strict=True) if n == base]
+            if len(flights) > 1:
+                SavePolicyComparison(
+                    {log.summary["policy"]: log for _, log in flights},
+                    flights[0][0],
+                    Path(args.out) / f"{base}_policies.png",
+                )
     print(CompareTable(rows))
     return 0
 

@@ -151,3 +151,22 @@ def test_cli_simulate_with_replay_writes_the_html_and_a_progress_bar(tmp_path, c
     summary = json.loads((tmp_path / "short" / "summary.json").read_text())
     assert summary["end_reason"].startswith("time limit 8 s reached, ")
     assert 0.9 < summary["coverage_remaining"] <= 1.0
+
+
+def test_compare_shows_one_bar_and_draws_the_policies_of_a_world(tmp_path, monkeypatch, capsys):
+    import eaplan_drake.cli as cli
+    import eaplan_drake.simulation as simulation
+
+    load = simulation.LoadNamedScenario
+    monkeypatch.setattr(cli, "COMPARE_FLIGHTS", (("plan_i", None), ("plan_i", "mpc")))
+    monkeypatch.setattr(
+        simulation,
+        "LoadNamedScenario",
+        lambda name: load(name, ["simulation: {time_limit: 6.0}"]),
+    )
+    assert cli_main(["compare", "--out", str(tmp_path)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.count("2/2 flights done") == 1
+    assert "compare: 2 flights  [" in captured.err
+    assert (tmp_path / "plan_i_policies.png").read_bytes()[:4] == b"\x89PNG"
+    assert "| plan_i_mpc | mpc | time_limit |" in captured.out
