@@ -1,7 +1,8 @@
 """Command line: ``eaplan-drake simulate | diagram | compare``.
 
-- ``eaplan-drake simulate SCENARIO [--out DIR]``: SCENARIO is a shipped name (plan_I, plan_II,
-  plan_i, plan_ii) or a YAML path; prints progress and the summary, writes the log and the plots.
+- ``eaplan-drake simulate SCENARIO [--out DIR] [--replay]``: SCENARIO is a shipped name (plan_I,
+  plan_II, plan_i, plan_ii) or a YAML path; prints progress and the summary, writes the log and
+  the plots (and with ``--replay`` the Meshcat replay ``replay.html``).
 - ``eaplan-drake diagram [--out DIR]``: DOT and SVG of the closed loop and each subsystem.
 - ``eaplan-drake compare [--out DIR]``: the four reference flights next to the paper's numbers.
 
