@@ -167,10 +167,12 @@ def DrawSurveyArea(ax, polygon, start=None) -> None:
 
 def DrawPlan(ax, stages, color="tab:blue", lw: float = 1.0, label=None, triggers=True) -> None:
     """The stages of a plan: lines and arcs (the approach dashed), triggering points as dots."""
+    # The label goes on the first solid stage, so the legend shows a solid line.
+    labelled = next((i for i, s in enumerate(stages) if s.primitive != APPROACH), 0)
     for i, s in enumerate(stages):
         pts = StagePoints(s)
         ls = "--" if s.primitive == APPROACH else "-"
-        ax.plot(*pts.T, color=color, lw=lw, ls=ls, label=label if i == 0 else None)
+        ax.plot(*pts.T, color=color, lw=lw, ls=ls, label=label if i == labelled else None)
     if triggers and len(stages):
         trig = np.array([s.trigger for s in stages])
         ax.plot(*trig.T, ".", color=color, ms=3)

@@ -168,3 +168,15 @@ def test_policy_comparison_has_a_path_panel_per_policy():
     plt.close(fig)
     with pytest.raises(ValueError, match="no flights"):
         PlotPolicyComparison({}, _Scenario())
+
+
+def test_draw_plan_labels_a_solid_stage():
+    from eaplan_drake.plots import DrawPlan
+
+    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0)
+    fig, ax = plt.subplots()
+    DrawPlan(ax, plan.Stages(0.0), label="plan")
+    handles, labels = ax.get_legend_handles_labels()
+    assert labels == ["plan"] and handles[0].get_linestyle() == "-"
+    assert len(ax.lines) == len(plan.Stages(0.0)) + 1  # every stage and the triggering points
+    plt.close(fig)
