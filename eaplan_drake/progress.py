@@ -51,7 +51,8 @@ class ProgressBar:
 
     ``Update(fraction, text)``: on a TTY the line is rewritten in place (at most every
     ``refresh`` seconds of wall time); otherwise a plain line is printed each time the fraction
-    passes another ``plain_step`` (and at :meth:`Close`). ``clock`` [s] is injectable for tests.
+    passes another ``plain_step`` below 1 (the last line is :meth:`Close`'s). ``clock`` [s] is
+    injectable for tests.
     """
 
     def __init__(
@@ -112,7 +113,8 @@ class ProgressBar:
                 self._last_draw = now
                 self.stream.write("\r" + self.Line() + "\x1b[K")
                 self.stream.flush()
-        elif self.fraction + 1e-12 >= self._next_plain:
+        elif self.fraction + 1e-12 >= self._next_plain and self.fraction < 1.0:
+            # (the line at 100 % is :meth:`Close`'s, with the final text)
             while self._next_plain <= self.fraction + 1e-12:
                 self._next_plain += self.plain_step
             self._Plain()

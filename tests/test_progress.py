@@ -53,11 +53,11 @@ def test_plain_lines_when_not_a_tty_one_per_tenth_with_eta():
             assert bar.Eta() == pytest.approx(37.5)
     bar.Close("done")
     lines = stream.getvalue().splitlines()
-    assert len(lines) == 11  # 10 %, 20 %, …, 100 % and the closing line
+    assert len(lines) == 10  # 10 %, 20 %, …, 90 % and the closing line at 100 %
     assert "\r" not in stream.getvalue()
     assert lines[0].startswith("plan_i  [##..................]  10 %  step 10")
     assert "ETA 0:45" in lines[0]  # 5 s for 10 %: 45 s to go
-    assert lines[-1].endswith("ETA 0:00") and "done" in lines[-1]
+    assert lines[-1].endswith("ETA 0:00") and "done" in lines[-1] and "100 %" in lines[-1]
 
 
 def test_in_place_line_on_a_tty_is_rate_limited():
