@@ -1,7 +1,8 @@
 """Command line: ``eaplan-drake simulate | diagram | compare``.
 
-- ``eaplan-drake simulate SCENARIO [--out DIR]``: SCENARIO is a shipped name (plan_I, plan_II,
-  plan_i, plan_ii) or a YAML path; prints progress and the summary, writes the log and the plots.
+- ``eaplan-drake simulate SCENARIO [--out DIR] [--replay]``: SCENARIO is a shipped name (plan_I,
+  plan_II, plan_i, plan_ii) or a YAML path; prints progress and the summary, writes the log and
+  the plots (and with ``--replay`` the Meshcat replay ``replay.html``).
 - ``eaplan-drake diagram [--out DIR]``: DOT and SVG of the closed loop and each subsystem.
 - ``eaplan-drake compare [--out DIR]``: the four reference flights next to the paper's numbers.
 - ``eaplan-drake fit LOG.csv [--period T] [--out DIR]``: fit the energy model to a power log
@@ -31,17 +32,14 @@ PAPER_RESULTS = {
 }
 
 
-def _Progress(t: float, soc: float) -> None:
-    print(f"  t = {t:6.0f} s   SoC = {soc:.3f}", file=sys.stderr, flush=True)
-
-
 def _FormatSummary(summary: dict) -> str:
     metric = summary.get("metric")
     planner = summary.get("planner", {})
     infeasible_at = summary.get("first_infeasible_time")
     lines = [
-        f"scenario        {summary['scenario']} (policy {summary.get('policy', '?')})",
-        f"status          {summary['status']}",
+        f"scenario        {summary['scenario']}",
+        f"policy          {summary.get('policy', '?')}",
+        f"status          {summary['status']}: {summary.get('end_reason', '')}",
         f"quality         {summary['quality']:.3f} = mean(½c1~ + ½c2~), "
         f"c1~ {summary['mean_path_parameter_normalised']:.3f}, "
         f"c2~ {summary['mean_computation_parameter_normalised']:.3f}",
@@ -49,9 +47,10 @@ def _FormatSummary(summary: dict) -> str:
         f"reserve {summary['reserve_soc']:.2f})",
         f"duration        {summary['duration']:.1f} s",
         f"metric P        {'fail' if metric is None else f'{metric:.3f}'} (paper's; see README)",
-        f"planner         {planner.get('solves', 0)} steps, {planner.get('failures', 0)} "
-        f"solver fallbacks, {planner.get('infeasible', 0)} infeasible"
+        f"planner         {planner.get('solves', 0)} steps: {planner.get('infeasible', 0)} "
+        "infeasible"
         + (f" (first at {infeasible_at:.1f} s)" if infeasible_at is not None else "")
+        + f", {planner.get('failures', 0)} solver fallbacks"
         + f", median solve {1e3 * (planner.get('median_solve_time') or 0.0):.1f} ms",
         f"wall time       {summary['wall_time']:.1f} s "
         f"({summary['realtime_factor']:.0f}x real time)",
@@ -62,6 +61,8 @@ def _FormatSummary(summary: dict) -> str:
 
 
 def _Simulate(args) -> int:
+    _CheckScenarioName(args.scenario)  # before the slow pydrake import
+    from eaplan_drake.progress import FlightProgress, ProgressBar
     from eaplan_drake.resolve import ResolveScenario
     from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
 
@@ -73,12 +74,33 @@ def _Simulate(args) -> int:
     ResolveScenario(scenario)  # every scenario error before the flight
     out = Path(args.out) / scenario.name
     out.parent.mkdir(parents=True, exist_ok=True)  # and an unusable --out
-    print(f"simulating {scenario.name} ...", file=sys.stderr, flush=True)
-    log = Simulate(scenario, progress=_Progress)
-    png = SaveFlight(log, scenario, out)
+    bar = ProgressBar(scenario.name)
+    log = Simulate(scenario, progress=FlightProgress(scenario, bar), progress_interval=2.0)
+    bar.Close(log.summary["end_reason"], fraction=1.0)
+    written = [f.name for f in SaveFlight(log, scenario, out, replay=args.replay)]
     print(_FormatSummary(log.summary))
-    print(f"log and plots in {out} ({png.name})")
+    print(f"log and plots in {out} ({', '.join(written)})")
     return 0
+
+
+def _CheckScenarioName(name: str) -> None:
+    """The one-line error for a scenario that is neither a file nor a shipped name, without
+    importing pydrake (the same check :func:`~eaplan_drake.simulation.LoadNamedScenario`
+    makes)."""
+    from importlib import resources
+
+    path = Path(name)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        return
+    if not (resources.files("eaplan_drake") / "scenarios" / f"{name}.yaml").is_file():
+        shipped = sorted(
+            f.name[: -len(".yaml")]
+            for f in (resources.files("eaplan_drake") / "scenarios").iterdir()
+            if f.name.endswith(".yaml")
+        )
+        raise ScenarioError(
+            f"{name}: not a YAML file nor a shipped scenario (shipped: {', '.join(shipped)})"
+        )
 
 
 def _Diagram(args) -> int:
@@ -104,6 +126,7 @@ their scenarios) and the two dynamic ones again with the mpc policy."""
 
 
 def _Compare(args) -> int:
+    from eaplan_drake.progress import FlightProgress, ProgressBar
     from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
 
     scenarios = []
@@ -115,20 +138,41 @@ def _Compare(args) -> int:
             scenario.planner.warmup_parameters = PlannerParams().warmup_parameters
             scenario.name = f"{name}_{policy}"
         scenarios.append((name, scenario))
-    print(f"simulating {len(scenarios)} flights ...", file=sys.stderr, flush=True)
+    n = len(scenarios)
+    bar = ProgressBar(f"compare: {n} flights")
     if args.jobs != 1:  # the studies' machinery: joblib's loky workers ([sweep] extra)
         try:
             import joblib
         except ImportError:
             raise ScenarioError("--jobs needs the [sweep] extra (joblib)") from None
-        logs = joblib.Parallel(n_jobs=args.jobs)(joblib.delayed(Simulate)(s) for _, s in scenarios)
+        logs = []
+        results = joblib.Parallel(n_jobs=args.jobs, return_as="generator")(
+            joblib.delayed(Simulate)(s) for _, s in scenarios
+        )
+        for i, log in enumerate(results):  # in order: the bar counts finished flights
+            logs.append(log)
+            bar.Update((i + 1) / n, f"{i + 1}/{n} flights done")
     else:
-        logs = [Simulate(s) for _, s in scenarios]
+        logs = []
+        for i, (_, s) in enumerate(scenarios):
+            logs.append(Simulate(s, FlightProgress(s, bar, i, n), progress_interval=5.0))
+    bar.Close(f"{n}/{n} flights done", fraction=1.0)
     rows = []
     for (name, scenario), log in zip(scenarios, logs, strict=True):
         if args.out:
             SaveFlight(log, scenario, Path(args.out) / scenario.name)
         rows.append((scenario.name, log.summary, PAPER_RESULTS[name]))
+    if args.out:  # the same world flown by several policies, side by side
+        from eaplan_drake.plots import SavePolicyComparison
+
+        for base in dict.fromkeys(name for name, _ in scenarios):
+            flights = [(s, log) for (n, s), log in zip(scenarios, logs, strict=True) if n == base]
+            if len(flights) > 1:
+                SavePolicyComparison(
+                    {log.summary["policy"]: log for _, log in flights},
+                    flights[0][0],
+                    Path(args.out) / f"{base}_policies.png",
+                )
     print(CompareTable(rows))
     return 0
 
@@ -273,6 +317,11 @@ def main(argv=None) -> int:
         choices=POLICIES,
         default="",
         help="fly with this planner policy instead of the scenario's (name gets a suffix)",
+    )
+    p.add_argument(
+        "--replay",
+        action="store_true",
+        help="also write replay.html: a 3-D Meshcat replay that opens offline in a browser",
     )
     p.set_defaults(run=_Simulate)
     p = sub.add_parser("diagram", help="write DOT and SVG of the closed loop and its systems")

@@ -55,6 +55,7 @@ __all__ = [
     "NormaliseParameters",
     "QualityMetric",
     "REFERENCE_SCENARIOS",
+    "EndReason",
     "ResultDirectory",
     "SaveFlight",
     "Simulate",
@@ -243,9 +244,13 @@ def ResultDirectory(directory: str | Path):
         raise
 
 
-def SaveFlight(log: "FlightLog", scenario: Scenario, directory: str | Path) -> Path:
+def SaveFlight(
+    log: "FlightLog", scenario: Scenario, directory: str | Path, *, replay: bool = False
+) -> list[Path]:
     """Writes a flight's result directory as a unit (:func:`ResultDirectory`): ``log.npz``,
-    ``summary.json`` and ``flight.png``; returns the path of the figure."""
+    ``summary.json``, ``flight.png`` and, with ``replay``, the Meshcat replay ``replay.html``
+    (:func:`~eaplan_drake.replay.SaveFlightReplay`); returns the paths of the figure and the
+    replay."""
     from eaplan_drake.plots import SaveFlightPlots
 
     _CheckType(log, FlightLog, "log", "a FlightLog (from Simulate)")
@@ -253,8 +258,12 @@ def SaveFlight(log: "FlightLog", scenario: Scenario, directory: str | Path) -> P
     final = Path(directory)
     with ResultDirectory(final) as tmp:
         log.Save(tmp)
-        png = SaveFlightPlots(log, scenario, tmp)
-    return final / png.name
+        written = [SaveFlightPlots(log, scenario, tmp)]
+        if replay:
+            from eaplan_drake.replay import SaveFlightReplay
+
+            written.append(SaveFlightReplay(log, scenario, tmp / "replay.html"))
+    return [final / f.name for f in written]
 
 
 def _CheckType(value, kind, name: str, what: str) -> None:
@@ -304,7 +313,7 @@ def _TimeMean(t: np.ndarray, x: np.ndarray) -> float:
 
 def Simulate(
     scenario: Scenario,
-    progress: Callable[[float, float], None] | None = None,
+    progress: Callable[[float, float, float], None] | None = None,
     progress_interval: float = 60.0,
     *,
     policy: PlannerPolicy | None = None,
@@ -312,7 +321,9 @@ def Simulate(
     """Simulates ``scenario`` until the survey completes, the reserve is reached, the battery
     browns out or ``scenario.simulation.time_limit``; returns the :class:`FlightLog`.
 
-    ``progress(t, soc)`` is called about every ``progress_interval`` simulated seconds.
+    ``progress(t, soc, covered)`` (covered = the survey fraction flown, 1 − coverage_remaining)
+    is called about every ``progress_interval`` simulated seconds
+    (:class:`~eaplan_drake.progress.FlightProgress` draws it).
     ``policy`` replaces the planner policy the scenario names (see
     :func:`~eaplan_drake.diagram.MakeEaplanDiagram`). With ``planner.policy: hindsight`` the
     result is the best flight of :func:`FlyHindsight` (several static flights).
@@ -335,6 +346,7 @@ def Simulate(
     complete_port = diagram.GetOutputPort("mission_complete")
     soc_port = diagram.GetOutputPort("soc")
     brownout_port = diagram.GetOutputPort("brownout")
+    remaining_port = diagram.GetOutputPort("coverage_remaining")
     reserve = scenario.battery.reserve_soc
     state = {"status": STATUS_TIME_LIMIT, "next_progress": progress_interval, "next_check": 0.0}
 
@@ -354,7 +366,8 @@ def Simulate(
             t = root_context.get_time()
             if progress is not None and t >= state["next_progress"]:
                 state["next_progress"] += progress_interval
-                progress(t, float(soc_port.Eval(root_context)[0]))
+                covered = 1.0 - float(remaining_port.Eval(root_context)[0])
+                progress(t, float(soc_port.Eval(root_context)[0]), covered)
             return EventStatus.Succeeded()
         return EventStatus.ReachedTermination(diagram, state["status"])
 
@@ -384,12 +397,15 @@ def Simulate(
         reserve,
         completed,
     )
+    remaining = float(log["coverage_remaining"][-1, 0]) if len(log.times) else 1.0
     feasible = log["mission_feasible"][:, 0]
     infeasible_at = np.flatnonzero(feasible < 0.5)
     log.summary = {
         "scenario": scenario.name,
         "policy": stats.get("policy", scenario.planner.policy),
         "status": state["status"],
+        "end_reason": EndReason(state["status"], final_time, scenario, remaining),
+        "coverage_remaining": remaining,
         "completed": completed,
         "duration": final_time,
         "final_soc": final_soc,
@@ -452,6 +468,24 @@ def _CheckSimulateArguments(scenario, progress, progress_interval, policy) -> No
         )
 
 
+def EndReason(status: str, time: float, scenario: Scenario, coverage_remaining: float) -> str:
+    """One sentence on why a flight ended (``status`` as in the summary, at ``time`` [s], with
+    the survey fraction ``coverage_remaining`` still to fly)."""
+    left = f"{100 * coverage_remaining:.0f} % of the survey left"
+    if status == STATUS_COMPLETE:
+        return f"survey complete at {time:.1f} s"
+    if status == STATUS_RESERVE:
+        return (
+            f"battery reached the reserve SoC {scenario.battery.reserve_soc:g} at {time:.1f} s, "
+            + left
+        )
+    if status == STATUS_BROWNOUT:
+        return f"battery browned out (load above V²/(4 R_r)) at {time:.1f} s, {left}"
+    if status == STATUS_NUMERICAL:
+        return f"a state became non-finite at {time:.1f} s (numerical failure), {left}"
+    return f"time limit {scenario.simulation.time_limit:g} s reached, {left}"
+
+
 def _CollectLog(diagram, context) -> FlightLog:
     signals = {}
     times = None
@@ -501,7 +535,7 @@ def HindsightGrid(scenario: Scenario) -> list[tuple[float, np.ndarray]]:
 
 def FlyHindsight(
     scenario: Scenario,
-    progress: Callable[[float, float], None] | None = None,
+    progress: Callable[[float, float, float], None] | None = None,
     progress_interval: float = 60.0,
 ) -> FlightLog:
     """The best constant (c1, c2) in hindsight on the world of ``scenario`` (wind, faults, seeds).

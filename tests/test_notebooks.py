@@ -23,12 +23,13 @@ def _ids(path: Path) -> str:
     return path.name
 
 
-def test_the_three_notebooks_are_there():
+def test_the_notebooks_are_there():
     names = {p.name for p in NOTEBOOKS}
     assert {
         "01_energy_model.ipynb",
         "02_coverage_guidance.ipynb",
         "03_reference_flights.ipynb",
+        "04_study.ipynb",
     } <= names
 
 

@@ -1,0 +1,33 @@
+"""The top-level loop picture: systems and the signals between them, nothing else."""
+
+from eaplan_drake.diagram import LOGGED_SIGNALS
+from eaplan_drake.graphviz import DiagramDots, LoopDot
+
+
+def test_loop_dot_merges_the_signals_between_two_systems_into_one_edge():
+    dot = LoopDot(
+        [
+            ("a", "y", "b", "u"),
+            ("a", "z", "b", "z"),
+            ("b", "out", "a", "in"),
+        ],
+        kinds={"a": "Plant"},
+    )
+    assert dot.count(" -> ") == 2
+    assert '"a" -> "b" [label="y → u\\nz"]' in dot
+    assert '"b" -> "a" [label="out → in"]' in dot
+    assert "<B>a</B>" in dot and ">Plant</FONT>" in dot
+    assert dot.startswith("digraph loop {") and dot.endswith("}\n")
+
+
+def test_the_loop_picture_shows_the_systems_not_the_loggers_or_exported_ports():
+    dot = DiagramDots()["loop"]
+    for name in ("wind", "plant", "sequencer", "guidance", "computation", "sensor"):
+        assert f'"{name}" [label=' in dot
+    for name in ("estimator", "battery", "planner"):
+        assert f'"{name}" [label=' in dot
+    assert "log_" not in dot and "output ports" not in dot
+    assert dot.count(" -> ") == 16  # one edge per connected pair of systems
+    assert '"planner" -> "sequencer" [label="path_parameters"]' in dot
+    assert '"sensor" -> "battery" [label="true_power → power"]' in dot
+    assert len(LOGGED_SIGNALS) > 10  # the detailed picture still exports every logged signal

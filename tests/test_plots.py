@@ -1,0 +1,182 @@
+"""Figures: the math behind them against analytic answers, and what the panels show."""
+
+import math
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+
+from eaplan_drake.coverage import MakeCoveragePlan
+from eaplan_drake.params import BatteryFault, Scenario
+from eaplan_drake.plots import (
+    PlotFlight,
+    PlotPolicyComparison,
+    RobustRange,
+    SampleQuality,
+    SaveFlightPlots,
+    StagePoints,
+    UncoveredArea,
+    UncoveredRadius,
+)
+from eaplan_drake.simulation import FlightLog
+
+
+def test_uncovered_area_of_a_square_swept_by_one_line():
+    square = [[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]]
+    line = np.array([[50.0, -10.0], [50.0, 110.0]])  # two points: the path is resampled
+    _, _, mask, fraction = UncoveredArea(square, line, radius=10.0, resolution=1.0)
+    assert fraction == pytest.approx(0.8, abs=0.02)  # a 20 m band of 100 m swept
+    assert not mask[:, 45:55].any() and mask[:, :38].all() and mask[:, 62:].all()
+    assert UncoveredArea(square, [[500.0, 500.0]], 10.0)[3] == 1.0
+    assert UncoveredArea(square, line, radius=80.0)[3] == 0.0
+    with pytest.raises(ValueError, match="resolution"):
+        UncoveredArea(square, line, radius=1.0, resolution=0.0)
+
+
+def test_uncovered_radius_is_half_the_widest_line_spacing():
+    # r1 = 70 + 10/2 = 75 m, r2(−1000) = sqrt(70² − 1000) m (paper 003 Eq. 14).
+    assert UncoveredRadius(Scenario()) == pytest.approx(75.0 - math.sqrt(3900.0), abs=1e-12)
+
+
+def test_robust_range_ignores_a_start_up_spike():
+    values = np.r_[48.0, 30.0 + np.sin(np.linspace(0.0, 20.0, 2000))]
+    lo, hi = RobustRange(values)
+    assert hi < 32.0 and lo > 28.0 and lo < 29.0
+    assert RobustRange([np.nan, np.inf]) == (0.0, 1.0)
+    lo, hi = RobustRange([5.0, 5.0], pad=0.1)
+    assert lo < 5.0 < hi
+
+
+def test_stage_points_follow_the_circle_from_entry_to_trigger():
+    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0)
+    stage = next(s for s in plan.Stages(0.0) if s.is_circle and s.primitive >= 0)
+    pts = StagePoints(stage, step=1.0)
+    r = np.linalg.norm(pts - np.asarray(stage.path.center), axis=1)
+    np.testing.assert_allclose(r, stage.path.radius, atol=1e-9)
+    np.testing.assert_allclose(pts[0], stage.entry, atol=1e-9)
+    np.testing.assert_allclose(pts[-1], stage.trigger, atol=1e-6)
+    length = np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))
+    assert length == pytest.approx(stage.length, rel=1e-3)
+    line = next(s for s in plan.Stages(0.0) if not s.is_circle)
+    np.testing.assert_allclose(StagePoints(line), [line.entry, line.trigger])
+
+
+def _Scenario():
+    s = Scenario()
+    s.name = "synthetic"
+    s.battery.faults = [BatteryFault(time=30.0, soc_drop=0.06)]
+    s.planner.warmup = 20.0
+    return s
+
+
+def _Log(completed=False, c1=-500.0, c2=6.0):
+    """A 60 s straight flight across the reference area at 5 Hz, with a start-up spike."""
+    t = np.linspace(0.0, 60.0, 301)
+    x = -110.0 + 3.0 * t
+    n = len(t)
+    power = 35.0 + np.sin(t)
+    estimated = power.copy()
+    estimated[0] = 80.0
+    soc = 1.0 - 0.01 * t
+    return FlightLog(
+        times=t,
+        signals={
+            "position": np.column_stack([x, np.full(n, 80.0)]),
+            "path_parameters": np.full((n, 1), c1),
+            "computation_parameters": np.full((n, 1), c2),
+            "measured_power": power[:, None] + 0.1,
+            "true_power": power[:, None],
+            "estimated_power": estimated[:, None],
+            "period": np.full((n, 1), 48.0),
+            "soc": soc[:, None],
+        },
+        summary={
+            "status": "complete" if completed else "reserve_reached",
+            "completed": completed,
+            "duration": 60.0,
+            "final_soc": soc[-1],
+            "final_margin": soc[-1] - 0.3,
+            "quality": 0.5,
+            "metric": None,
+            "policy": "mpc",
+        },
+    )
+
+
+def _Texts(fig):
+    texts = [t.get_text() for ax in fig.axes for t in ax.texts]
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        if legend is not None:
+            texts += [t.get_text() for t in legend.get_texts()]
+    return texts
+
+
+def test_flight_figure_marks_events_end_and_uncovered_area():
+    scenario = _Scenario()
+    fig = PlotFlight(_Log(completed=False), scenario)
+    texts = _Texts(fig)
+    for expected in ("warm-up (20 s)", "survey area", "start", "c1", "c2", "period T (right)"):
+        assert expected in texts, expected
+    assert any(t.startswith("fault (−6 % at 30 s") for t in texts)
+    assert any(t == "end: reserve reached at 60.0 s" for t in texts)
+    assert any(t.startswith("not covered (") for t in texts)
+    assert any(t.startswith("wind 5 m/s") for t in texts)
+    axes = {ax.get_title(): ax for ax in fig.axes if ax.get_title()}
+    # The start-up spike of the estimate (80 W) does not set the energy panel's range.
+    assert axes["energy"].get_ylim()[1] < 40.0
+    # The parameter axes sit at their bounds (c1 ∈ [−1000, 0] m², c2 ∈ [2, 10] fps) ± 6 %.
+    c1_lo, c1_hi = axes["parameters"].get_ylim()
+    assert c1_lo == pytest.approx(-1060.0) and c1_hi == pytest.approx(60.0)
+    twins = [
+        a
+        for a in fig.axes
+        if a is not axes["parameters"] and a.bbox.bounds == axes["parameters"].bbox.bounds
+    ]
+    assert any(a.get_ylim() == pytest.approx((1.52, 10.48)) for a in twins)
+    plt.close(fig)
+    fig = PlotFlight(_Log(completed=True), scenario)
+    texts = _Texts(fig)
+    assert "end: survey complete at 60.0 s" in texts
+    assert not any(t.startswith("not covered (") for t in texts)
+    plt.close(fig)
+
+
+def test_sample_quality_is_the_mean_of_the_normalised_parameters():
+    q = SampleQuality(_Log(c1=-500.0, c2=6.0), _Scenario())
+    np.testing.assert_allclose(q, 0.5 * 0.5 + 0.5 * 0.5)
+    q = SampleQuality(_Log(c1=0.0, c2=2.0), _Scenario())
+    np.testing.assert_allclose(q, 0.5)
+
+
+def test_saved_png_is_whole_and_leaves_no_temporary_file(tmp_path):
+    path = SaveFlightPlots(_Log(), _Scenario(), tmp_path / "run")
+    assert path.name == "flight.png"
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in path.parent.iterdir()) == ["flight.png"]
+
+
+def test_policy_comparison_has_a_path_panel_per_policy():
+    logs = {"mpc": _Log(c1=-200.0), "static": _Log(completed=True, c1=-1000.0, c2=2.0)}
+    fig = PlotPolicyComparison(logs, _Scenario())
+    titles = [ax.get_title() for ax in fig.axes]
+    assert "mpc: reserve_reached, quality 0.500" in titles
+    assert "static: complete, quality 0.500" in titles
+    assert {"battery", "path parameter (normalised)", "computation parameter (normalised)"} <= set(
+        titles
+    )
+    plt.close(fig)
+    with pytest.raises(ValueError, match="no flights"):
+        PlotPolicyComparison({}, _Scenario())
+
+
+def test_draw_plan_labels_a_solid_stage():
+    from eaplan_drake.plots import DrawPlan
+
+    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0)
+    fig, ax = plt.subplots()
+    DrawPlan(ax, plan.Stages(0.0), label="plan")
+    handles, labels = ax.get_legend_handles_labels()
+    assert labels == ["plan"] and handles[0].get_linestyle() == "-"
+    assert len(ax.lines) == len(plan.Stages(0.0)) + 1  # every stage and the triggering points
+    plt.close(fig)
