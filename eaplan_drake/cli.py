@@ -74,6 +74,7 @@ def _Simulate(args) -> int:
     ResolveScenario(scenario)  # every scenario error before the flight
     out = Path(args.out) / scenario.name
     out.parent.mkdir(parents=True, exist_ok=True)  # and an unusable --out
+    print(f"simulating {scenario.name} ...", file=sys.stderr, flush=True)
     bar = ProgressBar(scenario.name)
     log = Simulate(scenario, progress=FlightProgress(scenario, bar), progress_interval=2.0)
     bar.Close(log.summary["end_reason"], fraction=1.0)

@@ -450,7 +450,7 @@ def _CheckSimulateArguments(scenario, progress, progress_interval, policy) -> No
     )
     if progress is not None and not callable(progress):
         raise ScenarioError(
-            f"Simulate: progress: expected a callable (t, soc) or None, got "
+            f"Simulate: progress: expected a callable (t, soc, covered) or None, got "
             f"{type(progress).__name__}"
         )
     if isinstance(progress_interval, bool) or not (
