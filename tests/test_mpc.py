@@ -124,7 +124,8 @@ def test_a_shrinking_fault_reserve_never_lowers_the_quality(table):
     rng = np.random.default_rng(5)
     for _ in range(30):
         q, var, soc, t_rem = _RandomState(rng)
-        held, shrinking = _Problem(table), _Problem(table, fault_reserve_time=300.0)
+        held = _Problem(table, fault_reserve_time=0.0)
+        shrinking = _Problem(table, fault_reserve_time=300.0)
         held.SetState(q, var, soc, PERIOD, t_rem, [10.0])
         shrinking.SetState(q, var, soc, PERIOD, t_rem, [10.0])
         assert shrinking.BruteForce().quality >= held.BruteForce().quality - 1e-12
