@@ -28,23 +28,13 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.energy_model import EstimatePeriodWithConfidence
-from eaplan_drake.fit import BASELINES, ORDERS, FitPowerLog
+from eaplan_drake.fit import BASELINES, ORDERS, FitPowerLog, SyntheticPower
 from eaplan_drake.powerlog import REFERENCE_ENV, ReadPowerLog, ReferenceDirectory
 
 
 def Synthetic(seed: int, tau: float, sigma: float, noise: float = 0.5, duration: float = 1200.0):
     """(t, y): periodic power (T = 46 s, mean 30 W, 3 harmonics) + AR(1) load + white noise."""
-    rng = np.random.default_rng(seed)
-    dt, T = 0.5, 46.0
-    t = np.arange(0.0, duration, dt)
-    w = 2.0 * math.pi / T
-    y = 30.0 + 3.0 * np.cos(w * t) + 2.0 * np.sin(2 * w * t) + np.cos(3 * w * t + 1.0)
-    phi = math.exp(-dt / tau)
-    e = rng.normal(0.0, sigma * math.sqrt(1.0 - phi * phi), t.size)
-    d = np.zeros(t.size)
-    for k in range(1, t.size):
-        d[k] = phi * d[k - 1] + e[k]
-    return t, y + d + rng.normal(0.0, noise, t.size)
+    return SyntheticPower(seed, tau, sigma, noise, dt=0.5, duration=duration, period=46.0)
 
 
 def Cases(reference: Path):

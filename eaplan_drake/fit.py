@@ -63,6 +63,7 @@ __all__ = [
     "PredictAhead",
     "ScorePredictions",
     "SteadyStateCovariance",
+    "SyntheticPower",
     "UniformPowerSeries",
 ]
 
@@ -70,6 +71,30 @@ BASELINES = ("last value", "moving average", "seasonal naive")
 """The three baselines of :func:`ScorePredictions`."""
 
 HORIZON_NAMES = ("1 step", "T/4", "T/2", "T")
+
+
+def SyntheticPower(
+    seed: int,
+    tau: float = 15.0,
+    sigma: float = 3.0,
+    noise: float = 0.5,
+    dt: float = 0.5,
+    duration: float = 1200.0,
+    period: float = 46.0,
+):
+    """(t [s], y [W]) on a uniform grid of step ``dt``: periodic power (``period`` T, mean 30 W,
+    three harmonics) + an AR(1) load of time constant ``tau`` [s] and standard deviation
+    ``sigma`` [W] + white noise of ``noise`` [W]; the test signal of the fit and its benchmark."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration, dt)
+    w = 2.0 * math.pi / period
+    y = 30.0 + 3.0 * np.cos(w * t) + 2.0 * np.sin(2 * w * t) + np.cos(3 * w * t + 1.0)
+    phi = math.exp(-dt / tau)
+    e = rng.normal(0.0, sigma * math.sqrt(1.0 - phi * phi), t.size)
+    d = np.zeros(t.size)
+    for k in range(1, t.size):
+        d[k] = phi * d[k - 1] + e[k]
+    return t, y + d + rng.normal(0.0, noise, t.size)
 
 
 @dc.dataclass(frozen=True)

@@ -857,7 +857,7 @@ def LoadScenario(
         path = Path(filename)
         if not path.is_file():
             raise ScenarioError(f"{path}: no such scenario file")
-        data = _ReadText(path, MAX_SCENARIO_BYTES, ScenarioError)
+        data = ReadTextFile(path, MAX_SCENARIO_BYTES, ScenarioError)
         scenario = _LoadLayer(data, Scenario(), f"{path}: ", source=str(path))
         return LayerScenario(ResolveFilePaths(scenario, path.parent), overrides)
     if not isinstance(data, str):
@@ -869,7 +869,7 @@ MAX_SCENARIO_BYTES = 1_000_000
 """Largest scenario file [bytes]."""
 
 
-def _ReadText(path: Path, max_bytes: int, error: type) -> str:
+def ReadTextFile(path: Path, max_bytes: int, error: type) -> str:
     """The UTF-8 text of ``path``; ``error`` (one line naming the file) if it is larger than
     ``max_bytes``, unreadable or not UTF-8."""
     try:

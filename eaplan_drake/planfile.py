@@ -43,7 +43,7 @@ from .coverage import (
     PlanSource,
     Stage,
 )
-from .params import GuidanceParams
+from .params import GuidanceParams, ReadTextFile
 from .paths import PathFunction
 
 __all__ = [
@@ -630,16 +630,7 @@ def ReadPlanFile(path_or_text=None, *, text: str | None = None, **kwargs) -> Pla
 
 
 def _ReadPlanText(path: Path) -> str:
-    size = path.stat().st_size
-    if size > MAX_PLAN_BYTES:
-        raise PlanFileError(f"{path}: {size} bytes, more than the {MAX_PLAN_BYTES} allowed")
-    raw = path.read_bytes()
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        line = raw[: e.start].count(b"\n") + 1
-        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
-        raise PlanFileError(f"{path}:{line}:{col}: not UTF-8 text") from None
+    return ReadTextFile(path, MAX_PLAN_BYTES, PlanFileError)
 
 
 def LoadPlanFile(

@@ -349,16 +349,7 @@ def PlotPower(ax, log: FlightLog, scenario: Scenario | None = None) -> None:
     plo, phi = RobustRange(log["period"][:, 0], quantiles=(0.0, 1.0), pad=0.1)
     twin.set_ylim(plo - 1.5 * (phi - plo), phi + 0.1 * (phi - plo))
     twin.set_ylabel("period T [s]", color="tab:purple")
-    ax.legend(
-        handles=[m, tr, est, per, *handles],
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.1),
-        fontsize="small",
-        ncol=3,
-        frameon=False,
-    )
-    ax.set_xlim(t[0], t[-1])
-    ax.set_title("energy")
+    _FinishTimePanel(ax, [m, tr, est, per, *handles], 3, (t[0], t[-1]), "energy")
 
 
 def PlotSoc(ax, log: FlightLog, scenario: Scenario) -> None:
@@ -428,16 +419,7 @@ def PlotParameters(ax, log: FlightLog, scenario: Scenario | None = None) -> None
     ax.set_xlabel("t [s]")
     ax.set_ylabel("c1 [m²]", color=_C1_COLOR)
     twin.set_ylabel("c2 [table units, fps]", color=_C2_COLOR)
-    ax.legend(
-        handles=[c1_line, *c2_lines, *handles],
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.1),
-        fontsize="small",
-        ncol=4,
-        frameon=False,
-    )
-    ax.set_xlim(t[0], t[-1])
-    ax.set_title("parameters")
+    _FinishTimePanel(ax, [c1_line, *c2_lines, *handles], 4, (t[0], t[-1]), "parameters")
 
 
 def PlotFlight(log: FlightLog, scenario: Scenario):
@@ -522,6 +504,20 @@ def PlotPolicyComparison(logs: dict, scenario: Scenario):
         f"policies on one world: {scenario.name} (dot: start, X: end, hatched: not covered)"
     )
     return fig
+
+
+def _FinishTimePanel(ax, handles, ncol: int, time_range, title: str) -> None:
+    """A time panel's legend below its axes, its time range [s] and its title."""
+    ax.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.1),
+        fontsize="small",
+        ncol=ncol,
+        frameon=False,
+    )
+    ax.set_xlim(*time_range)
+    ax.set_title(title)
 
 
 # --- files ------------------------------------------------------------------------------------

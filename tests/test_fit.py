@@ -20,6 +20,7 @@ from eaplan_drake.fit import (
     PowerModelFit,
     ScorePredictions,
     SteadyStateCovariance,
+    SyntheticPower,
     UniformPowerSeries,
 )
 from eaplan_drake.params import LoadScenario
@@ -31,16 +32,7 @@ T = 46.0
 
 def _synthetic(seed, tau=15.0, sigma=3.0, noise=0.5, dt=0.5, duration=1200.0):
     """Periodic power + AR(1) load (τ, σ) + white noise, on a uniform grid."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(0.0, duration, dt)
-    w = 2.0 * math.pi / T
-    y = 30.0 + 3.0 * np.cos(w * t) + 2.0 * np.sin(2 * w * t) + np.cos(3 * w * t + 1.0)
-    phi = math.exp(-dt / tau)
-    e = rng.normal(0.0, sigma * math.sqrt(1.0 - phi * phi), t.size)
-    d = np.zeros(t.size)
-    for k in range(1, t.size):
-        d[k] = phi * d[k - 1] + e[k]
-    return t, y + d + rng.normal(0.0, noise, t.size)
+    return SyntheticPower(seed, tau, sigma, noise, dt, duration, period=T)
 
 
 def test_steady_state_covariance_solves_the_riccati_equation():
