@@ -146,7 +146,9 @@ def test_plenty_of_battery_gives_the_highest_plan_and_none_the_lowest_flagged(ta
 
 def test_brute_force_is_the_best_feasible_plan_and_keeps_the_margin(table):
     rng = np.random.default_rng(11)
-    pb = _Problem(table, margin_floor=0.03, margin_sigmas=3.0, fault_reserve=0.05)
+    pb = _Problem(
+        table, margin_floor=0.03, margin_sigmas=3.0, fault_reserve=0.05, fault_reserve_time=300.0
+    )
     reserve = BATTERY.reserve_soc
     V, R = BATTERY.voltage, BATTERY.internal_resistance
     checked = 0
@@ -159,9 +161,11 @@ def test_brute_force_is_the_best_feasible_plan_and_keeps_the_margin(table):
         checked += 1
         power = table.power(d.computation_parameters)
         end = pb.SocAt(power, t_rem[d.path_index])
-        # m = floor + fault reserve + 3 σ of the drain error over t_rem (SoC per W·s at y0 = α̂0).
+        # m = floor + fault reserve (shrinking over the last 300 s) + 3 σ of the drain error over
+        # t_rem (SoC per W·s at y0 = α̂0).
         s_b = BATTERY.k_b / (BATTERY.capacity * math.sqrt(V * V - 4 * R * q[0]))
-        margin = 0.03 + 0.05 + 3.0 * s_b * t_rem[d.path_index] * math.sqrt(var)
+        t = t_rem[d.path_index]
+        margin = 0.03 + 0.05 * min(1.0, t / 300.0) + 3.0 * s_b * t * math.sqrt(var)
         assert end >= reserve + margin - 1e-12 and d.margin == pytest.approx(margin, rel=1e-12)
         assert pb.RecursiveSlack(power) >= 0.0  # (2): the lowest plan after one step completes
         # No feasible plan has a higher quality (enumerated here independently).
