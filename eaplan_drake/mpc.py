@@ -42,8 +42,9 @@ plan without the flag.
 **Margin.** m(t) = m_floor + m_fault(t) + z · s_b · t · σ_α0 for a plan with t seconds of survey
 left: a configurable floor (0.02); a reserve for battery faults nobody can foresee,
 m_fault(t) = R_f · min(1, t/τ_f) (``fault_reserve`` R_f = 0.10 by default, one fault of the size
-of the reference plan i's, −6 % and −9 %; ``fault_reserve_time`` τ_f: faults come at a rate, so
-the reserve can shrink with the exposure that is left; τ_f = 0 holds R_f to the end); and z
+of the reference plan i's, −6 % and −9 %; ``fault_reserve_time`` τ_f = 300 s by default: faults
+come at a rate, so the reserve shrinks with the exposure that is left; τ_f = 0 holds R_f to the
+end); and z
 standard deviations of the drain error that an error σ_α0 = sqrt(P_00) [W] of the estimated mean
 power causes over t seconds, with s_b = k_b/(Q_c sqrt(V² − 4 R_r y0)) [1/(W s)] the SoC rate per
 watt at the mean load y0 = α̂0. m never grows as the survey goes on (t only decreases), so the
