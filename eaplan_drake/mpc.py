@@ -54,13 +54,13 @@ margin does not break recursive feasibility.
 estimate of the mean power is unreliable before about one period) the aircraft flies the lowest
 plan (``warmup_parameters: lowest``), so nothing is spent before the first check. From then on,
 while the predictions hold, the lowest plan ends at least b_res + m_floor + m_fault above empty
-after every step; an SoC drop d ≤ m_fault (the drops of a flight adding up to at most the reserve)
-leaves it at least b_res + m_floor, and the planner then flies the lowest plan when it must: the
-survey is completed. Larger drops are not covered, and no policy can cover them without giving
-up quality everywhere: if the lowest plan ends ε above the reserve in a world with a drop late in
-the flight, every policy that has spent more than ε by then fails, and before the drop the world
-looks the same as one without it. The fault reserve sets that trade (README, "Planner
-policies").
+after every step; an SoC drop d ≤ m_fault(t) (the drops of a flight adding up to at most the
+reserve held when they come) leaves it at least b_res + m_floor, and the planner then flies the
+lowest plan when it must: the survey is completed. Larger drops are not covered, and no policy
+can cover them without giving up quality everywhere: if the lowest plan ends ε above the reserve
+in a world with a drop late in the flight, every policy that has spent more than ε by then
+fails, and before the drop the world looks the same as one without it. The fault reserve sets
+that trade (README, "Planner policies").
 
 **Objective.** The paper's metric rewards the time-weighted mean of ½c̃1 + ½c̃2; the planner
 maximises the quality of the plan, J = (w1 c̃1 + w2 mean_i c̃2_i)/(w1 + w2) with c̃ the parameters
