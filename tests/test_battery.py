@@ -1,7 +1,6 @@
 """Tests of the Rint battery functions (paper 003 Lemma III.3) and the Battery system."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +19,7 @@ from eaplan_drake.battery import (
     TimeToSoc,
 )
 from eaplan_drake.params import BatteryFault, BatteryParams
+from eaplan_drake.powerlog import REFERENCE_ENV, ReferenceDirectory
 
 V, R, Q, KB = 14.8, 0.0012, 3.2, 0.00183
 
@@ -278,10 +278,14 @@ def test_bad_time_step_is_named(time_step):
         Battery(Reference(), time_step=time_step)
 
 
-AUTHORS = Path("/work/shared/reference/seewald2022/plan_I/bat.csv")
+REFERENCE_DIR = ReferenceDirectory()
+AUTHORS = REFERENCE_DIR / "plan_I" / "bat.csv"
 
 
-@pytest.mark.skipif(not AUTHORS.exists(), reason="authors' reference data not available")
+@pytest.mark.skipif(
+    not AUTHORS.exists(),
+    reason=f"authors' reference data not found in {REFERENCE_DIR} (set {REFERENCE_ENV})",
+)
 def test_authors_plan_I_budget_column_and_absolute_fault_drops():
     # bat.csv: t, b, b·Q_c·V. Their SoC is a scripted piecewise-linear profile (not the Rint
     # model), so only the budget definition and the fault semantics are comparable.

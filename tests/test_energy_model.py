@@ -1,7 +1,6 @@
 """Tests of the scaled periodic energy model (paper 003 Eqs. 3–12, Lemma III.1)."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +16,9 @@ from eaplan_drake.energy_model import (
     FourierMatrices,
     FourierStateFromCoefficients,
 )
+from eaplan_drake.powerlog import REFERENCE_ENV, ReferenceDirectory
 
-REFERENCE = Path("/work/shared/reference/seewald2022")
+REFERENCE = REFERENCE_DIR = ReferenceDirectory()
 
 
 def _series(t, a0, a, b, T):
@@ -175,7 +175,10 @@ def test_period_estimate_errors():
         EstimatePeriod(t[:3], t[:3])
 
 
-@pytest.mark.skipif(not REFERENCE.is_dir(), reason="authors' reference data not available")
+@pytest.mark.skipif(
+    not REFERENCE.is_dir(),
+    reason=f"authors' reference data not found in {REFERENCE_DIR} (set {REFERENCE_ENV})",
+)
 def test_period_estimate_on_authors_plan_I_log():
     data = np.loadtxt(REFERENCE / "plan_I" / "energy_resized.csv", delimiter=",")
     t, y = data[:, 0], data[:, 1]

@@ -17,9 +17,11 @@ from eaplan_drake.planfile import (
     QuadraticForm,
     ReadPlanFile,
 )
+from eaplan_drake.powerlog import REFERENCE_ENV, ReferenceDirectory
 
-DYN_PLAN = Path("/work/shared/reference/seewald2022/dyn_plan_specification.pln")
-STATIC_PLAN = Path("/work/shared/reference/seewald2022/plan_specification.pln")
+REFERENCE_DIR = ReferenceDirectory()
+DYN_PLAN = REFERENCE_DIR / "dyn_plan_specification.pln"
+STATIC_PLAN = REFERENCE_DIR / "plan_specification.pln"
 
 
 @pytest.mark.parametrize(
@@ -129,7 +131,10 @@ def test_direction_zero_flies_the_first_circle_counter_clockwise():
     assert lines[1].TriggerTangent() == pytest.approx([0.0, 1.0])
 
 
-@pytest.mark.skipif(not DYN_PLAN.is_file(), reason="authors' reference data not available")
+@pytest.mark.skipif(
+    not DYN_PLAN.is_file(),
+    reason=f"authors' reference data not found in {REFERENCE_DIR} (set {REFERENCE_ENV})",
+)
 def test_dynamic_plan_at_c1_zero_equals_the_static_one():
     static = ReadPlanFile(STATIC_PLAN).Stages(0.0)
     dyn = ReadPlanFile(DYN_PLAN)
