@@ -185,6 +185,9 @@ class MissionProblem:
         V, R = float(battery.voltage), float(battery.internal_resistance)
         self._V2, self._4R = V * V, 4.0 * R
         self._soc_per_amp_second = battery.k_b / battery.capacity
+        self._margin_floor = float(planner.margin_floor)
+        self._fault_reserve = float(planner.fault_reserve)
+        self._fault_time = float(planner.fault_reserve_time)
 
     # -- per-step data -------------------------------------------------------------------------
 
@@ -224,9 +227,6 @@ class MissionProblem:
         s_b = self._soc_per_amp_second / disc
         sigma = math.sqrt(max(float(mean_power_variance), 0.0))
         p = self.params
-        self._margin_floor = float(p.margin_floor)
-        self._fault_reserve = float(p.fault_reserve)
-        self._fault_time = float(p.fault_reserve_time)
         self._margin_rate = float(p.margin_sigmas) * s_b * sigma  # [1/s]
 
     def SetObservation(self, observation) -> None:
