@@ -1,18 +1,32 @@
-"""Times each reference flight end to end: wall time, simulated seconds per wall second, the
-planner's share, and peak memory (each flight in a fresh subprocess, so peaks don't mix).
+"""Times each reference flight end to end and reports its speed as × real time and as the ratio to
+the reference loop (``reference_loop.py``: the same closed-loop math as one plain numpy loop, no
+Drake) measured in the same run: the ratio carries from one machine to the next, an absolute speed
+does not. Also the planner's share of the flight and the peak memory (each flight in a fresh
+subprocess, so peaks don't mix). Speeds are per CPU second of the flight's process
+(``time.process_time``), so that a busy machine slows both sides alike.
 
-Target on the 2-core reference machine: plan I in <= 15 s wall (>= 50x real time), peak memory
-<= 1 GB.
+    python3 benchmarks/bench_flights.py [--runs 3] [--baseline-tree DIR] [FLIGHT ...]
 
-    python3 benchmarks/bench_flights.py [plan_I plan_II plan_i plan_ii plan_I_full]
+FLIGHT: ``plan_I``, ``plan_II``, ``plan_i``, ``plan_ii``, ``plan_I_full`` (plan I with a battery
+ten times larger and no reserve, so the whole c1 = 0 survey, ≈ 767 simulated seconds, is flown).
+With ``--runs N`` every figure is the median of N runs (flights and reference loop interleaved).
+``--baseline-tree DIR`` also flies each flight with the package found in DIR (e.g. a checkout of
+an older commit, ``git worktree add /tmp/old <commit>``) and prints the speed-up of this tree over
+it, measured in the same run.
 
-``plan_I_full`` is plan I with a battery ten times larger and no reserve, so that the whole
-c1 = 0 survey (~767 simulated seconds) is flown: the case the target speaks of.
+Targets (issue 14): dynamic flights (plan_i, plan_ii) at least 3× the speed of commit 9f6bcff in
+the same run, planner ≤ 20 % of a dynamic flight, peak memory ≤ 150 MB per flight.
 """
 
+import argparse
 import json
+import os
+import statistics
 import subprocess
 import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
 
 CHILD = """
 import json, resource, sys, time
@@ -22,42 +36,100 @@ scenario = LoadNamedScenario(name.removesuffix("_full"))
 if name.endswith("_full"):  # the whole survey: a battery that cannot run out
     scenario.battery.capacity *= 10.0
     scenario.battery.reserve_soc = 0.0
+cpu = time.process_time()
 log = Simulate(scenario)
+cpu = time.process_time() - cpu
 s = log.summary
 planner = s["planner"]
 print(json.dumps({
     "flight": sys.argv[1],
     "status": s["status"],
     "simulated_s": s["duration"],
-    "wall_s": s["wall_time"],
-    "realtime_factor": s["realtime_factor"],
+    "cpu_s": cpu,
     "planner_s": sum(planner.get("step_times", []) or []),
     "solves": planner.get("solves", 0),
     "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
 }))
 """
 
+REFERENCE_CHILD = """
+import json, sys
+sys.path.insert(0, sys.argv[2])
+from reference_loop import FlyReferenceLoop
+from eaplan_drake.simulation import LoadNamedScenario
+r = FlyReferenceLoop(LoadNamedScenario(sys.argv[1]))
+print(json.dumps({"status": r["status"], "simulated_s": r["duration"], "cpu_s": r["cpu_s"]}))
+"""
 
-def main(names):
-    rows = []
-    for name in names:
-        out = subprocess.run(
-            [sys.executable, "-c", CHILD, name], check=True, capture_output=True, text=True
-        ).stdout
-        rows.append(json.loads(out.strip().splitlines()[-1]))
-    header = (
-        "| flight | status | simulated [s] | wall [s] | x real time | planner share | peak [MB] |"
+FLIGHTS = ["plan_I", "plan_II", "plan_i", "plan_ii", "plan_I_full"]
+REFERENCE_FLIGHT = "plan_I"
+
+
+def _Run(code: str, args: list[str], tree: str | None) -> dict:
+    env = dict(os.environ)
+    if tree:
+        env["PYTHONPATH"] = tree
+    out = subprocess.run(
+        [sys.executable, "-c", code, *args], check=True, capture_output=True, text=True, env=env
+    ).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def _Speed(row: dict) -> float:
+    """Simulated seconds per CPU second [-]."""
+    return row["simulated_s"] / row["cpu_s"] if row["cpu_s"] > 0 else float("nan")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("flights", nargs="*", default=FLIGHTS)
+    parser.add_argument("--runs", type=int, default=1)
+    parser.add_argument("--baseline-tree", default=None)
+    args = parser.parse_args()
+    unknown = [f for f in args.flights if f not in FLIGHTS]
+    if unknown or args.runs < 1:
+        parser.error(f"flights must be among {', '.join(FLIGHTS)} and --runs >= 1")
+    trees = {"this": None}
+    if args.baseline_tree:
+        trees["baseline"] = str(Path(args.baseline_tree).resolve())
+    reference, rows = [], {}
+    for run in range(args.runs):
+        reference.append(_Speed(_Run(REFERENCE_CHILD, [REFERENCE_FLIGHT, str(HERE)], None)))
+        for name in args.flights:
+            for label, tree in trees.items():
+                rows.setdefault((name, label), []).append(_Run(CHILD, [name], tree))
+        print(f"run {run + 1}/{args.runs} done", file=sys.stderr)
+    ref = statistics.median(reference)
+    print(
+        f"reference loop ({REFERENCE_FLIGHT}, plain numpy): {ref:.0f}x real time per CPU second "
+        f"(median of {len(reference)}: {', '.join(f'{r:.0f}' for r in reference)})"
     )
+    print()
+    header = "| flight | tree | status | simulated [s] | CPU [s] | x real time | / reference loop |"
+    header += " planner share | peak [MB] |"
+    if "baseline" in trees:
+        header += " speed-up over baseline |"
     print(header)
-    print("| --- | --- | --- | --- | --- | --- | --- |")
-    for r in rows:
-        share = r["planner_s"] / r["wall_s"] if r["wall_s"] > 0 else 0.0
-        print(
-            f"| {r['flight']} | {r['status']} | {r['simulated_s']:.1f} | {r['wall_s']:.2f} | "
-            f"{r['realtime_factor']:.0f} | {100 * share:.0f} % ({r['solves']} solves) | "
-            f"{r['peak_rss_mb']:.0f} |"
-        )
+    print("| --- " * (header.count("|") - 1) + "|")
+    for name in args.flights:
+        base_speed = None
+        if "baseline" in trees:
+            base_speed = statistics.median(_Speed(r) for r in rows[(name, "baseline")])
+        for label in trees:
+            rs = rows[(name, label)]
+            speed = statistics.median(_Speed(r) for r in rs)
+            cpu = statistics.median(r["cpu_s"] for r in rs)
+            share = statistics.median(r["planner_s"] / r["cpu_s"] for r in rs)
+            peak = max(r["peak_rss_mb"] for r in rs)
+            line = (
+                f"| {name} | {label} | {rs[0]['status']} | {rs[0]['simulated_s']:.1f} | "
+                f"{cpu:.2f} | {speed:.0f} | {speed / ref:.3f} | {100 * share:.0f} % "
+                f"({rs[0]['solves']} solves) | {peak:.0f} |"
+            )
+            if base_speed is not None:
+                line += f" {speed / base_speed:.2f}x |"
+            print(line)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:] or ["plan_I", "plan_II", "plan_i", "plan_ii", "plan_I_full"])
+    main()

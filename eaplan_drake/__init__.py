@@ -10,4 +10,9 @@ Modules (each: the math as plain numpy functions, then a thin Drake ``LeafSystem
 (``PlannerScheduler``), ``diagram`` (``MakeEaplanDiagram``), ``simulation`` (``Simulate``).
 """
 
-__version__ = "0.1.0"
+from importlib import metadata as _metadata
+
+try:
+    __version__ = _metadata.version("eaplan-drake")
+except _metadata.PackageNotFoundError:  # imported from a source tree that is not installed
+    __version__ = "0+unknown"

@@ -20,16 +20,9 @@ import threading
 from pathlib import Path
 
 from eaplan_drake.params import POLICIES, OverrideFromAssignment, PlannerParams, ScenarioError
+from eaplan_drake.reference import PAPER_RESULTS, CompareTable
 
-__all__ = ["PAPER_RESULTS", "main"]
-
-PAPER_RESULTS = {
-    # paper 003 Sec. V / the authors' logs: survey time [s] and metric P (None = fails)
-    "plan_I": {"duration": 724.7, "metric": None},
-    "plan_II": {"duration": 318.7, "metric": 0.0},
-    "plan_i": {"duration": 403.2, "metric": 13.045},
-    "plan_ii": {"duration": 662.0, "metric": 2.245},
-}
+__all__ = ["main"]
 
 
 def _FormatSummary(summary: dict) -> str:
@@ -176,27 +169,6 @@ def _Compare(args) -> int:
                 )
     print(CompareTable(rows))
     return 0
-
-
-def CompareTable(rows) -> str:
-    """A Markdown table of (name, our summary, paper numbers) rows: quality and completion
-    first, the paper's metric P last."""
-
-    def fmt(m):
-        return "fail" if m is None else f"{m:.3f}"
-
-    lines = [
-        "| flight | policy | status | quality | final margin | time [s] | paper time [s] | P | "
-        "paper P |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
-    ]
-    for name, s, paper in rows:
-        lines.append(
-            f"| {name} | {s.get('policy', '')} | {s['status']} | {s['quality']:.3f} | "
-            f"{s['final_margin']:+.3f} | {s['duration']:.1f} | {paper['duration']:.1f} | "
-            f"{fmt(s['metric'])} | {fmt(paper['metric'])} |"
-        )
-    return "\n".join(lines)
 
 
 def _StudyPath(name_or_path: str):

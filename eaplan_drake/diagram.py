@@ -21,7 +21,7 @@ and each logged signal has a ``VectorLogSink`` named ``log_<signal>`` (see :data
 import dataclasses as dc
 
 import numpy as np
-from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
 from eaplan_drake.battery import Battery
@@ -38,9 +38,14 @@ from eaplan_drake.sequencer import StageSequencer
 
 __all__ = [
     "LOGGED_SIGNALS",
+    "AddEnergyLoop",
+    "AddGuidedAircraft",
+    "AddPlannerScheduler",
+    "AddSignalLoggers",
+    "EnergyLoop",
+    "GuidedAircraft",
     "MakeEaplanDiagram",
     "MakeScenarioPolicy",
-    "WindVector",
 ]
 
 LOGGED_SIGNALS = {
@@ -66,47 +71,62 @@ LOGGED_SIGNALS = {
 """Signals logged by :func:`MakeEaplanDiagram` (``VectorLogSink`` named ``log_<name>``)."""
 
 
-def WindVector(speed: float, direction_deg: float) -> np.ndarray:
-    """w = speed · [cos θ_w, sin θ_w] [m/s], θ_w the direction the wind blows towards."""
-    theta = np.deg2rad(direction_deg)
-    return speed * np.array([np.cos(theta), np.sin(theta)])
+@dc.dataclass(frozen=True)
+class GuidedAircraft:
+    """The flight side added by :func:`AddGuidedAircraft`: the systems, and the sequencer's
+    ``path_parameters`` input (c1 [m²]) that a planner or a constant drives."""
+
+    wind: ConstantVectorSource
+    plant: FixedWingPlant
+    sequencer: StageSequencer
+    guidance: VectorFieldGuidance
 
 
-def MakeEaplanDiagram(
-    scenario: Scenario | ResolvedScenario,
-    log_period: float | None = None,
+@dc.dataclass(frozen=True)
+class EnergyLoop:
+    """The energy side added by :func:`AddEnergyLoop`: the systems, and the computation load's
+    ``computation_parameters`` input (c2) that a planner or a constant drives."""
+
+    computation: ComputationLoad
+    sensor: PowerSensor
+    estimator: EnergyEstimator
+    battery: Battery
+
+
+def AddGuidedAircraft(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    plan,
     *,
-    policy: PlannerPolicy | None = None,
-) -> Diagram:
-    """Builds the closed-loop diagram of ``scenario``, resolved first
-    (:func:`~eaplan_drake.resolve.ResolveScenario`: table and plan loaded, every cross-field
-    constraint checked; or pass a :class:`~eaplan_drake.resolve.ResolvedScenario`).
+    initial_path_parameter: float,
+    path_parameter: float | None = None,
+) -> GuidedAircraft:
+    """Adds and wires the flight side of ``scenario`` to ``builder``: ``wind``
+    (a constant w [m/s], :meth:`~eaplan_drake.params.WindParams.Vector`), ``plant``
+    (:class:`~eaplan_drake.plant.FixedWingPlant`), ``sequencer``
+    (:class:`~eaplan_drake.sequencer.StageSequencer` over ``plan``, a plan source) and
+    ``guidance`` (:class:`~eaplan_drake.guidance.VectorFieldGuidance`)::
 
-    ``log_period`` [s] overrides ``scenario.simulation.log_period``; 0 disables the loggers.
-    ``policy`` replaces the policy that ``scenario.planner.policy`` names (a Python user's own
-    :class:`~eaplan_drake.planner.PlannerPolicy`).
+        wind ─► plant ─► sequencer ─► guidance ─► plant
+                  └─────────────────────┘ (position, ground velocity, heading)
+
+    ``initial_path_parameter`` is the c1 [m²] the sequencer starts with. The sequencer's
+    ``path_parameters`` input is left for the caller (a planner), or fed the constant
+    ``path_parameter`` [m²] when given (a flight at one coverage density).
     """
-    resolved = scenario if isinstance(scenario, ResolvedScenario) else ResolveScenario(scenario)
-    scenario, table, plan = resolved.scenario, resolved.table, resolved.plan
-    builder = DiagramBuilder()
-    c1_0, c2_0 = StartParameters(scenario, table)
-
-    w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
-    grid = scenario.planner.PathParameterGrid()
-    if policy is None:
-        policy = MakeScenarioPolicy(scenario, table, plan)
+    w = scenario.wind.Vector()
     wind = builder.AddNamedSystem("wind", ConstantVectorSource(w))
     plant = builder.AddNamedSystem("plant", FixedWingPlant(scenario.vehicle))
     sequencer = builder.AddNamedSystem(
         "sequencer",
         StageSequencer(
             plan,
-            initial_c1=c1_0,
+            initial_c1=initial_path_parameter,
             trigger_radius=scenario.coverage.trigger_radius,
             initial_period=scenario.energy_model.initial_period,
             airspeed=scenario.vehicle.airspeed,
             wind=w,
-            path_parameter_grid=grid,
+            path_parameter_grid=scenario.planner.PathParameterGrid(),
         ),
     )
     guidance = builder.AddNamedSystem(
@@ -118,6 +138,46 @@ def MakeEaplanDiagram(
             wind_speed=scenario.wind.speed,
         ),
     )
+    connect = builder.Connect
+    connect(wind.get_output_port(), plant.GetInputPort("wind"))
+    connect(plant.GetOutputPort("position"), sequencer.GetInputPort("position"))
+    connect(plant.GetOutputPort("position"), guidance.GetInputPort("position"))
+    connect(plant.GetOutputPort("ground_velocity"), guidance.GetInputPort("ground_velocity"))
+    connect(plant.GetOutputPort("heading"), guidance.GetInputPort("heading"))
+    connect(sequencer.GetOutputPort("path"), guidance.GetInputPort("path"))
+    connect(
+        guidance.GetOutputPort("heading_rate_command"), plant.GetInputPort("heading_rate_command")
+    )
+    if path_parameter is not None:
+        c1 = builder.AddNamedSystem("path_parameter", ConstantVectorSource([path_parameter]))
+        connect(c1.get_output_port(), sequencer.GetInputPort("path_parameters"))
+    return GuidedAircraft(wind=wind, plant=plant, sequencer=sequencer, guidance=guidance)
+
+
+def AddEnergyLoop(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    table,
+    *,
+    motion_power: OutputPort,
+    period: OutputPort,
+    computation_parameters: list[float] | None = None,
+) -> EnergyLoop:
+    """Adds and wires the energy side of ``scenario`` to ``builder``: ``computation``
+    (:class:`~eaplan_drake.computation.ComputationLoad` over ``table``), ``sensor``
+    (:class:`~eaplan_drake.sensor.PowerSensor`, seeded by ``scenario.SensorSeed()``),
+    ``estimator`` (:class:`~eaplan_drake.estimator.EnergyEstimator`) and ``battery``
+    (:class:`~eaplan_drake.battery.Battery`)::
+
+        motion_power ─► sensor ◄─ computation          period ─► estimator
+                          ├─ measured_power ─► estimator ◄─ computation power
+                          └─ true_power ─► battery
+
+    ``motion_power`` [W] and ``period`` (T [s]) are output ports already in ``builder`` (the
+    plant's and the sequencer's, :func:`AddGuidedAircraft`). The computation load's
+    ``computation_parameters`` input is left for the caller (a planner), or fed the constant
+    ``computation_parameters`` (table units) when given.
+    """
     computation = builder.AddNamedSystem("computation", ComputationLoad(table))
     sensor = builder.AddNamedSystem(
         "sensor", PowerSensor(dc.replace(scenario.sensor, seed=scenario.SensorSeed()))
@@ -132,6 +192,38 @@ def MakeEaplanDiagram(
         ),
     )
     battery = builder.AddNamedSystem("battery", Battery(scenario.battery))
+    connect = builder.Connect
+    connect(motion_power, sensor.GetInputPort("motion_power"))
+    connect(computation.GetOutputPort("power"), sensor.GetInputPort("computation_power"))
+    connect(computation.GetOutputPort("power"), estimator.GetInputPort("computation_power"))
+    connect(sensor.GetOutputPort("measured_power"), estimator.GetInputPort("measured_power"))
+    connect(period, estimator.GetInputPort("period"))
+    connect(sensor.GetOutputPort("true_power"), battery.GetInputPort("power"))
+    if computation_parameters is not None:
+        c2 = builder.AddNamedSystem(
+            "computation_parameters", ConstantVectorSource(list(computation_parameters))
+        )
+        connect(c2.get_output_port(), computation.GetInputPort("computation_parameters"))
+    return EnergyLoop(computation=computation, sensor=sensor, estimator=estimator, battery=battery)
+
+
+def AddPlannerScheduler(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    table,
+    aircraft: GuidedAircraft,
+    energy: EnergyLoop,
+    *,
+    policy: PlannerPolicy,
+    initial_parameters: tuple[float, list[float]],
+) -> PlannerScheduler:
+    """Adds the ``planner`` (:class:`~eaplan_drake.planner.PlannerScheduler` running
+    ``policy``) and closes the loop: it reads the estimator's coefficients and their variance,
+    the battery's SoC and the sequencer's remaining time, period and coverage, and drives the
+    sequencer's c1 and the computation load's c2. ``initial_parameters`` = (c1 [m²], c2) flown
+    until the first planner step (:func:`~eaplan_drake.resolve.StartParameters`)."""
+    c1_0, c2_0 = initial_parameters
+    grid = scenario.planner.PathParameterGrid()
     planner = builder.AddNamedSystem(
         "planner",
         PlannerScheduler(
@@ -145,57 +237,95 @@ def MakeEaplanDiagram(
             path_parameter_grid_size=grid.size,
         ),
     )
-
+    sequencer, estimator = aircraft.sequencer, energy.estimator
     connect = builder.Connect
-    connect(wind.get_output_port(), plant.GetInputPort("wind"))
-    connect(plant.GetOutputPort("position"), sequencer.GetInputPort("position"))
-    connect(plant.GetOutputPort("position"), guidance.GetInputPort("position"))
-    connect(plant.GetOutputPort("ground_velocity"), guidance.GetInputPort("ground_velocity"))
-    connect(plant.GetOutputPort("heading"), guidance.GetInputPort("heading"))
-    connect(sequencer.GetOutputPort("path"), guidance.GetInputPort("path"))
-    connect(
-        guidance.GetOutputPort("heading_rate_command"), plant.GetInputPort("heading_rate_command")
-    )
     connect(
         planner.GetOutputPort("computation_parameters"),
-        computation.GetInputPort("computation_parameters"),
+        energy.computation.GetInputPort("computation_parameters"),
     )
-    connect(plant.GetOutputPort("motion_power"), sensor.GetInputPort("motion_power"))
-    connect(computation.GetOutputPort("power"), sensor.GetInputPort("computation_power"))
-    connect(computation.GetOutputPort("power"), estimator.GetInputPort("computation_power"))
-    connect(sensor.GetOutputPort("measured_power"), estimator.GetInputPort("measured_power"))
-    connect(sequencer.GetOutputPort("period"), estimator.GetInputPort("period"))
-    connect(sensor.GetOutputPort("true_power"), battery.GetInputPort("power"))
     connect(
         estimator.GetOutputPort("energy_coefficients"), planner.GetInputPort("energy_coefficients")
     )
     connect(
         estimator.GetOutputPort("mean_power_variance"), planner.GetInputPort("mean_power_variance")
     )
-    connect(battery.GetOutputPort("soc"), planner.GetInputPort("soc"))
+    connect(energy.battery.GetOutputPort("soc"), planner.GetInputPort("soc"))
     connect(sequencer.GetOutputPort("remaining_time"), planner.GetInputPort("remaining_time"))
     connect(sequencer.GetOutputPort("period"), planner.GetInputPort("period"))
     connect(
         sequencer.GetOutputPort("coverage_remaining"), planner.GetInputPort("coverage_remaining")
     )
     connect(planner.GetOutputPort("path_parameters"), sequencer.GetInputPort("path_parameters"))
+    return planner
 
-    systems = {
-        s.get_name(): s
-        for s in (plant, sequencer, guidance, computation, sensor, estimator, battery, planner)
-    }
+
+def AddSignalLoggers(builder: DiagramBuilder, systems: dict, log_period: float) -> None:
+    """Exports each of :data:`LOGGED_SIGNALS` (and the sequencer's ``mission_complete``) as a
+    diagram output port of the same name and, when ``log_period`` [s] > 0, logs it into a
+    ``VectorLogSink`` named ``log_<signal>``. ``systems`` maps system names to systems."""
     for name, (system_name, port_name) in LOGGED_SIGNALS.items():
         builder.ExportOutput(systems[system_name].GetOutputPort(port_name), name)
-    builder.ExportOutput(sequencer.GetOutputPort("mission_complete"), "mission_complete")
-
-    period = scenario.simulation.log_period if log_period is None else log_period
-    if period > 0.0:
+    builder.ExportOutput(systems["sequencer"].GetOutputPort("mission_complete"), "mission_complete")
+    if log_period > 0.0:
         for name, (system_name, port_name) in LOGGED_SIGNALS.items():
             logger = LogVectorOutput(
-                systems[system_name].GetOutputPort(port_name), builder, publish_period=period
+                systems[system_name].GetOutputPort(port_name), builder, publish_period=log_period
             )
             logger.set_name(f"log_{name}")
 
+
+def MakeEaplanDiagram(
+    scenario: Scenario | ResolvedScenario,
+    *,
+    plan_source=None,
+    policy: PlannerPolicy | None = None,
+    log_period: float | None = None,
+) -> Diagram:
+    """Builds the closed-loop diagram of ``scenario``, resolved first
+    (:func:`~eaplan_drake.resolve.ResolveScenario`: table and plan loaded, every cross-field
+    constraint checked; or pass a :class:`~eaplan_drake.resolve.ResolvedScenario`), from
+    :func:`AddGuidedAircraft`, :func:`AddEnergyLoop`, :func:`AddPlannerScheduler` and
+    :func:`AddSignalLoggers`.
+
+    ``plan_source`` replaces the scenario's plan (any plan source, e.g. a
+    :class:`~eaplan_drake.planfile.PlanFile`); ``policy`` replaces the policy that
+    ``scenario.planner.policy`` names (a Python user's own
+    :class:`~eaplan_drake.planner.PlannerPolicy`); ``log_period`` [s] overrides
+    ``scenario.simulation.log_period``, 0 disables the loggers.
+    """
+    resolved = scenario if isinstance(scenario, ResolvedScenario) else ResolveScenario(scenario)
+    scenario, table = resolved.scenario, resolved.table
+    plan = resolved.plan if plan_source is None else plan_source
+    if policy is None:
+        policy = MakeScenarioPolicy(scenario, table, plan)
+    start = StartParameters(scenario, table)
+    builder = DiagramBuilder()
+    aircraft = AddGuidedAircraft(builder, scenario, plan, initial_path_parameter=start[0])
+    energy = AddEnergyLoop(
+        builder,
+        scenario,
+        table,
+        motion_power=aircraft.plant.GetOutputPort("motion_power"),
+        period=aircraft.sequencer.GetOutputPort("period"),
+    )
+    planner = AddPlannerScheduler(
+        builder, scenario, table, aircraft, energy, policy=policy, initial_parameters=start
+    )
+    systems = {
+        s.get_name(): s
+        for s in (
+            aircraft.plant,
+            aircraft.sequencer,
+            aircraft.guidance,
+            energy.computation,
+            energy.sensor,
+            energy.estimator,
+            energy.battery,
+            planner,
+        )
+    }
+    period = scenario.simulation.log_period if log_period is None else log_period
+    AddSignalLoggers(builder, systems, period)
     diagram = builder.Build()
     diagram.set_name("eaplan")
     return diagram
@@ -206,7 +336,7 @@ def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
     ``table`` (:class:`~eaplan_drake.computation.ComputationTable`) and ``plan`` (the plan
     source): the Eq. 10 line through t(c1) at the bounds in the scenario's wind, and the c1 grid
     of the sequencer's ``remaining_time``."""
-    w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
+    w = scenario.wind.Vector()
     return MakePolicy(
         scenario.planner,
         table,

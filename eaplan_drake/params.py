@@ -29,8 +29,8 @@ __all__ = [
     "GuidanceParams",
     "LayerScenario",
     "LoadScenario",
-    "OverrideFromAssignment",
     "MotionPowerParams",
+    "OverrideFromAssignment",
     "POLICIES",
     "PlannerParams",
     "Scenario",
@@ -39,6 +39,7 @@ __all__ = [
     "SimulationParams",
     "VehicleParams",
     "WindParams",
+    "WindVector",
 ]
 
 
@@ -194,6 +195,16 @@ class WindParams:
     def Validate(self, key: str = "wind") -> None:
         _nonnegative(self.speed, f"{key}.speed")
         _finite(self.direction_deg, f"{key}.direction_deg")
+
+    def Vector(self) -> np.ndarray:
+        """w [m/s] (:func:`WindVector`)."""
+        return WindVector(self.speed, self.direction_deg)
+
+
+def WindVector(speed: float, direction_deg: float) -> np.ndarray:
+    """w = speed · [cos θ_w, sin θ_w] [m/s], θ_w [deg] the direction the wind blows towards."""
+    theta = np.deg2rad(direction_deg)
+    return speed * np.array([np.cos(theta), np.sin(theta)])
 
 
 @dc.dataclass

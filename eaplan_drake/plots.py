@@ -22,8 +22,7 @@ from matplotlib.transforms import ScaledTranslation
 
 from eaplan_drake.computation import LoadComputationTable
 from eaplan_drake.coverage import APPROACH, TurningRadius2
-from eaplan_drake.diagram import WindVector
-from eaplan_drake.params import Scenario
+from eaplan_drake.params import Scenario, WindVector
 from eaplan_drake.simulation import AtomicWrite, FlightLog, NormaliseParameters
 
 __all__ = [

@@ -31,7 +31,6 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.computation import LoadComputationTable
-from eaplan_drake.diagram import WindVector
 from eaplan_drake.params import Scenario
 from eaplan_drake.simulation import FlightLog, NormaliseParameters
 
@@ -256,7 +255,7 @@ def SaveFlightReplay(
 
         lo_xy, hi_xy = np.min(np.vstack([p, poly]), axis=0), np.max(np.vstack([p, poly]), axis=0)
         # Wind arrow above the top-left corner of the area.
-        w = WindVector(scenario.wind.speed, scenario.wind.direction_deg)
+        w = scenario.wind.Vector()
         speed = float(np.linalg.norm(w))
         if speed > 0.0:
             outline = ArrowOutline(speed / 10.0, 0.06)

@@ -9,6 +9,8 @@ import pytest
 from eaplan_drake.cli import main as cli_main
 from eaplan_drake.simulation import LoadNamedScenario, Simulate
 
+pytestmark = pytest.mark.slow
+
 _LOGS = {}
 
 

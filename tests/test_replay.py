@@ -11,6 +11,8 @@ from eaplan_drake.params import Scenario
 from eaplan_drake.replay import ArrowOutline, PathChunks, ReplayFrames, Ribbon, SaveFlightReplay
 from eaplan_drake.simulation import FlightLog
 
+pytestmark = pytest.mark.slow
+
 
 def test_replay_frames_take_the_last_sample_at_or_before_each_frame_time():
     t = np.arange(0.0, 10.01, 0.1)  # 10 Hz log

@@ -9,12 +9,11 @@ import sys
 import textwrap
 import time
 
+import distributed
 import pytest
 
-joblib = pytest.importorskip("joblib", reason="the [sweep] extra (joblib) is not installed")
-
-from eaplan_drake.params import ScenarioError  # noqa: E402
-from eaplan_drake.sweep import (  # noqa: E402
+from eaplan_drake.params import ScenarioError
+from eaplan_drake.sweep import (
     FlyRow,
     LoadStudy,
     RunStudy,
@@ -22,6 +21,8 @@ from eaplan_drake.sweep import (  # noqa: E402
     StudyReport,
     WilsonInterval,
 )
+
+pytestmark = pytest.mark.slow
 
 TINY = textwrap.dedent(
     """\
@@ -122,7 +123,6 @@ def test_a_flight_that_raises_is_an_error_row(study):
 
 
 def test_dask_local_cluster_runs_the_study(study, tmp_path):
-    distributed = pytest.importorskip("distributed", reason="the [sweep] extra (dask) is missing")
     st, d = study
     st.grid = {"wind.speed": [3.0]}
     st.draws = 1
