@@ -902,7 +902,7 @@ def ResolveFilePaths(scenario: Scenario, base_dir: str | Path) -> Scenario:
     """``scenario`` with a relative ``computation.table`` / ``coverage.plan_file`` path made
     relative to ``base_dir`` (the scenario file's folder) instead of the current directory;
     packaged names (``pednet_jetson_nano``, ``reference``, …) stay. Modifies and returns it."""
-    from .computation import PACKAGED_TABLES
+    from eaplan_drake.computation import PACKAGED_TABLES
 
     base = Path(base_dir)
     table = scenario.computation.table
