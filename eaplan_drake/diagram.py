@@ -30,7 +30,7 @@ from eaplan_drake.estimator import EnergyEstimator
 from eaplan_drake.guidance import VectorFieldGuidance
 from eaplan_drake.params import Scenario
 from eaplan_drake.planner import PlannerPolicy, PlannerScheduler
-from eaplan_drake.plant import FixedWingPlant, MaxHeadingRate
+from eaplan_drake.plant import MakeFixedWingPlant, MaxHeadingRate
 from eaplan_drake.policies import MakePolicy
 from eaplan_drake.resolve import ResolvedScenario, ResolveScenario, StartParameters
 from eaplan_drake.sensor import PowerSensor
@@ -96,7 +96,9 @@ def MakeEaplanDiagram(
     if policy is None:
         policy = MakeScenarioPolicy(scenario, table, plan)
     wind = builder.AddNamedSystem("wind", ConstantVectorSource(w))
-    plant = builder.AddNamedSystem("plant", FixedWingPlant(scenario.vehicle))
+    plant = builder.AddNamedSystem(
+        "plant", MakeFixedWingPlant(scenario.vehicle, scenario.simulation)
+    )
     sequencer = builder.AddNamedSystem(
         "sequencer",
         StageSequencer(
