@@ -143,10 +143,14 @@ def MotionPowerRange(vehicle: VehicleParams) -> tuple[float, float]:
     return coefficients[0], float(MotionPower(MaxHeadingRate(vehicle), coefficients))
 
 
-def GroundVelocity(heading, wind, airspeed):
-    """ṗ = v_a [cos ψ, sin ψ] + w [m/s] (any scalar type)."""
+def _GroundVelocity(heading, wind, airspeed) -> tuple:
     m = _Math(heading)
-    return np.array([airspeed * m.cos(heading) + wind[0], airspeed * m.sin(heading) + wind[1]])
+    return airspeed * m.cos(heading) + wind[0], airspeed * m.sin(heading) + wind[1]
+
+
+def GroundVelocity(heading, wind, airspeed) -> np.ndarray:
+    """ṗ = v_a [cos ψ, sin ψ] + w [m/s] (any scalar type)."""
+    return np.array(_GroundVelocity(heading, wind, airspeed))
 
 
 class NonFiniteCommandError(ValueError):
@@ -175,7 +179,7 @@ def SaturatedHeadingRate(u, max_heading_rate: float):
 def FixedWingDynamics(state, heading_rate_command, wind, airspeed, max_heading_rate):
     """f(x, u, w) = [v_a cos ψ + w_x, v_a sin ψ + w_y, sat(u, ψ̇_max)] for x = (x, y, ψ) (any
     scalar type); a non-finite float u raises :class:`NonFiniteCommandError`."""
-    vx, vy = GroundVelocity(state[2], wind, airspeed)
+    vx, vy = _GroundVelocity(state[2], wind, airspeed)
     return np.array([vx, vy, SaturatedHeadingRate(heading_rate_command, max_heading_rate)])
 
 
@@ -227,7 +231,8 @@ def MakeFixedWingPlant(vehicle: VehicleParams, simulation: SimulationParams):
 
 class _FixedWingPorts:
     """Construction, ports and outputs shared by :class:`FixedWingPlant` and
-    :class:`FixedWingArcPlant` (each defines ``_Pose(context)`` -> :data:`AircraftState`)."""
+    :class:`FixedWingArcPlant` (each defines ``_StateList(context)``: [x, y, ψ], the
+    :data:`AircraftState` fields in order)."""
 
     def _DeclarePorts(self, vehicle: VehicleParams, state_ticket):
         self._vehicle = vehicle
@@ -256,10 +261,16 @@ class _FixedWingPorts:
         )
 
     @staticmethod
-    def _InitialState(vehicle: VehicleParams) -> np.ndarray:
-        return np.array(
-            [*vehicle.initial_position, math.radians(vehicle.initial_heading_deg)], dtype=float
-        )
+    def _PoseVector(position, heading) -> np.ndarray:
+        value = np.zeros(3)
+        pose = AircraftState(value)
+        pose.x, pose.y = position
+        pose.heading = heading
+        return value
+
+    @classmethod
+    def _InitialState(cls, vehicle: VehicleParams) -> np.ndarray:
+        return cls._PoseVector(vehicle.initial_position, math.radians(vehicle.initial_heading_deg))
 
     # -- accessors ----------------------------------------------------------------------------
 
@@ -295,16 +306,19 @@ class _FixedWingPorts:
         return SaturatedHeadingRate(self._u_port.Eval(context)[0], self._max_rate)
 
     def _CalcPosition(self, context, output):
-        pose = self._Pose(context)
-        output.SetAtIndex(0, pose.x)
-        output.SetAtIndex(1, pose.y)
+        x, y, _ = self._StateList(context)
+        output.SetAtIndex(0, x)
+        output.SetAtIndex(1, y)
 
     def _CalcHeading(self, context, output):
-        output.SetAtIndex(0, self._Pose(context).heading)
+        _, _, heading = self._StateList(context)
+        output.SetAtIndex(0, heading)
 
     def _CalcGroundVelocity(self, context, output):
-        heading = self._Pose(context).heading
-        output.SetFromVector(GroundVelocity(heading, self._wind_port.Eval(context), self._airspeed))
+        _, _, heading = self._StateList(context)
+        vx, vy = _GroundVelocity(heading, self._wind_port.Eval(context).tolist(), self._airspeed)
+        output.SetAtIndex(0, vx)
+        output.SetAtIndex(1, vy)
 
     def _CalcMotionPower(self, context, output):
         output.SetAtIndex(0, MotionPower(self._AppliedRate(context), self._power_coefficients))
@@ -365,18 +379,18 @@ def FixedWingPlant_(T):
         def SetPose(self, context, position, heading):
             """Sets (x, y) [m] and ψ [rad] in ``context``."""
             context.get_mutable_continuous_state_vector().SetFromVector(
-                np.array([position[0], position[1], heading], dtype=float)
+                self._PoseVector(position, heading)
             )
 
-        def _Pose(self, context):
-            return AircraftState(context.get_continuous_state_vector().CopyToVector())
+        def _StateList(self, context):
+            return context.get_continuous_state_vector().CopyToVector().tolist()
 
         def DoCalcTimeDerivatives(self, context, derivatives):
             derivatives.SetFromVector(
                 FixedWingDynamics(
-                    context.get_continuous_state_vector().CopyToVector(),
+                    self._StateList(context),
                     self._u_port.Eval(context)[0],
-                    self._wind_port.Eval(context),
+                    self._wind_port.Eval(context).tolist(),
                     self._airspeed,
                     self._max_rate,
                 )
@@ -438,17 +452,16 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
     def SetPose(self, context, position, heading):
         """Sets (x, y) [m] and ψ [rad] in ``context``."""
         context.get_mutable_discrete_state(self._state_index).SetFromVector(
-            np.array([position[0], position[1], heading], dtype=float)
+            self._PoseVector(position, heading)
         )
 
-    def _Pose(self, context):
-        return AircraftState(context.get_discrete_state(self._state_index).value())
+    def _StateList(self, context):
+        return context.get_discrete_state(self._state_index).value().tolist()
 
     def _Update(self, context, discrete_state):
-        x = context.get_discrete_state(self._state_index).value().tolist()
         discrete_state.get_mutable_vector(self._state_index).SetFromVector(
             ArcStep(
-                x,
+                self._StateList(context),
                 self._AppliedRate(context),
                 self._wind_port.Eval(context).tolist(),
                 self._airspeed,
