@@ -631,7 +631,8 @@ class SimulationParams:
     """Aircraft model, one of :data:`PLANT_MODELS`: ``continuous``, the unicycle integrated by
     ``integrator`` (the paper's replication), or ``exact_arc``, the same unicycle stepped exactly
     every ``max_step`` with the turn rate held over the step (plant and guidance run once per step;
-    ``integrator`` is then unused)."""
+    ``integrator`` is then unused; the loop differs from the continuous one by the hold of the
+    command, first order in the step: ≤ 0.2 m at 0.01 s on the reference flights)."""
 
     def Validate(self, key: str = "simulation") -> None:
         _positive(self.time_limit, f"{key}.time_limit")

@@ -409,7 +409,16 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
     Every h [s] (offset 0): ω = sat(u, ψ̇_max) from the command at the step's start, then
     (x, y, ψ) ← :func:`ArcStep` (the exact arc with v_a, w and ω held over the step; module
     docstring). The command is read once per step, so plant and guidance run once per step
-    (the continuous :class:`FixedWingPlant` under RK2 evaluates both twice per step).
+    (measured on plan i: 1.04 guidance evaluations per 0.01 s step, against 2.27 for the
+    continuous :class:`FixedWingPlant` under RK2). The plant is exact for the held command; the
+    closed loop differs from the continuous one by that hold, to first order in h (reference
+    survey, c1 = −1000: ≤ 0.18 m at h = 0.01 s and ≤ 0.018 m at h = 0.001 s from a 1 kHz
+    continuous run, whose own RK2 at 0.01 s is within 1.3 mm of it).
+
+    ``motion_power`` stays direct feedthrough of the command rather than a state output (the
+    rate applied over the last step): the command is computed once per step and cached, so a
+    state output would save no guidance evaluation, and it would hand the sensor the power of
+    the step just flown, one step late.
 
     Args:
         vehicle: :class:`~eaplan_drake.params.VehicleParams` (validated, copied).
