@@ -30,7 +30,7 @@ from eaplan_drake.estimator import EnergyEstimator
 from eaplan_drake.guidance import VectorFieldGuidance
 from eaplan_drake.params import Scenario
 from eaplan_drake.planner import PlannerPolicy, PlannerScheduler
-from eaplan_drake.plant import FixedWingPlant, MaxHeadingRate
+from eaplan_drake.plant import FixedWingPlant, MakeFixedWingPlant, MaxHeadingRate
 from eaplan_drake.policies import MakePolicy
 from eaplan_drake.resolve import ResolvedScenario, ResolveScenario, StartParameters
 from eaplan_drake.sensor import PowerSensor
@@ -116,7 +116,9 @@ def AddGuidedAircraft(
     """
     w = scenario.wind.Vector()
     wind = builder.AddNamedSystem("wind", ConstantVectorSource(w))
-    plant = builder.AddNamedSystem("plant", FixedWingPlant(scenario.vehicle))
+    plant = builder.AddNamedSystem(
+        "plant", MakeFixedWingPlant(scenario.vehicle, scenario.simulation)
+    )
     sequencer = builder.AddNamedSystem(
         "sequencer",
         StageSequencer(
@@ -149,7 +151,7 @@ def AddGuidedAircraft(
         guidance.GetOutputPort("heading_rate_command"), plant.GetInputPort("heading_rate_command")
     )
     if path_parameter is not None:
-        c1 = builder.AddNamedSystem("path_parameter", ConstantVectorSource([path_parameter]))
+        c1 = builder.AddNamedSystem("path_parameters", ConstantVectorSource([path_parameter]))
         connect(c1.get_output_port(), sequencer.GetInputPort("path_parameters"))
     return GuidedAircraft(wind=wind, plant=plant, sequencer=sequencer, guidance=guidance)
 

@@ -35,6 +35,7 @@ above the airspeed is checked where it is known: :func:`CheckWindBelowAirspeed`,
 ``wind_speed`` argument of :class:`VectorFieldGuidance`.
 """
 
+import copy
 import math
 
 import numpy as np
@@ -72,75 +73,41 @@ def CheckWindBelowAirspeed(wind_speed: float, airspeed: float) -> None:
         )
 
 
+def _Field(a, bx, by, c, s, ke, x, y):
+    """n = ∇φ, k_e φ and ṗ_d = s E n − k_e φ n at (x, y): (n_x, n_y, k_e φ, ṗ_d,x, ṗ_d,y)."""
+    nx = 2.0 * a * x + bx
+    ny = 2.0 * a * y + by
+    kp = ke * (a * (x * x + y * y) + bx * x + by * y + c)
+    return nx, ny, kp, s * ny - kp * nx, -s * nx - kp * ny
+
+
+def _CourseRate(a, s, ke, nx, ny, kp, dx, dy, dn2, vx, vy):
+    """χ̇_d = (ṗ_d × d/dt ṗ_d) / max(‖ṗ_d‖², floor) along ṗ = (v_x, v_y), with
+    d/dt ṗ_d = (s E − k_e φ I) H ṗ − k_e (nᵀṗ) n, H = 2a I (where the field has a direction)."""
+    ta = 2.0 * a
+    ndot = nx * vx + ny * vy
+    ddx = ta * (s * vy - kp * vx) - ke * ndot * nx
+    ddy = ta * (-s * vx - kp * vy) - ke * ndot * ny
+    return (dx * ddy - dy * ddx) / (dn2 if dn2 > _FIELD_FLOOR_SQ else _FIELD_FLOOR_SQ)
+
+
 def GuidingVectorField(path, position) -> np.ndarray:
     """ṗ_d = s E∇φ − k_e φ ∇φ at ``position`` for a descriptor [a, b_x, b_y, c, s, k_e]."""
     a, bx, by, c, s, ke = (float(v) for v in path)
-    x, y = float(position[0]), float(position[1])
-    nx, ny = 2.0 * a * x + bx, 2.0 * a * y + by
-    kp = ke * (a * (x * x + y * y) + bx * x + by * y + c)
-    return np.array([s * ny - kp * nx, -s * nx - kp * ny])
+    _, _, _, dx, dy = _Field(a, bx, by, c, s, ke, float(position[0]), float(position[1]))
+    return np.array([dx, dy])
 
 
 def DesiredCourseRate(path, position, ground_velocity) -> float:
     """χ̇_d = (ṗ_d × d/dt ṗ_d) / ‖ṗ_d‖² [rad/s] along the measured ground velocity ṗ (guarded as in
     the module docstring: 0 where the field vanishes)."""
     a, bx, by, c, s, ke = (float(v) for v in path)
-    x, y = float(position[0]), float(position[1])
-    vx, vy = float(ground_velocity[0]), float(ground_velocity[1])
-    nx, ny = 2.0 * a * x + bx, 2.0 * a * y + by
-    kp = ke * (a * (x * x + y * y) + bx * x + by * y + c)
-    dx, dy = s * ny - kp * nx, -s * nx - kp * ny
+    nx, ny, kp, dx, dy = _Field(a, bx, by, c, s, ke, float(position[0]), float(position[1]))
     dn2 = dx * dx + dy * dy
     if dn2 <= _FIELD_EPS * _FIELD_EPS:
         return 0.0
-    ta, ndot = 2.0 * a, nx * vx + ny * vy
-    ddx = ta * (s * vy - kp * vx) - ke * ndot * nx
-    ddy = ta * (-s * vx - kp * vy) - ke * ndot * ny
-    return (dx * ddy - dy * ddx) / max(dn2, _FIELD_FLOOR_SQ)
-
-
-def _Command(x, y, vx, vy, psi, a, bx, by, c, s, ke, va, kd, rmax) -> float:
-    """The heading-rate law on plain floats (the hot path of :class:`VectorFieldGuidance`)."""
-    if not math.isfinite(x + y + vx + vy + psi + a + bx + by + c + s + ke):
-        raise ValueError(
-            "VectorFieldGuidance: non-finite input: "
-            f"position=({x}, {y}), ground_velocity=({vx}, {vy}), heading={psi}, "
-            f"path=[{a}, {bx}, {by}, {c}, {s}, {ke}]"
-        )
-    nx = 2.0 * a * x + bx
-    ny = 2.0 * a * y + by
-    kp = ke * (a * (x * x + y * y) + bx * x + by * y + c)
-    dx = s * ny - kp * nx
-    dy = -s * nx - kp * ny
-    dn2 = dx * dx + dy * dy
-    cpsi = math.cos(psi)
-    spsi = math.sin(psi)
-    v2 = vx * vx + vy * vy
-    if v2 > _SPEED_EPS * _SPEED_EPS:
-        v = math.sqrt(v2)
-        ux, uy = vx / v, vy / v
-    else:
-        ux, uy = cpsi, spsi
-    if dn2 > _FIELD_EPS * _FIELD_EPS:
-        dn = math.sqrt(dn2)
-        mx, my = dx / dn, dy / dn
-        ta = 2.0 * a
-        ndot = nx * vx + ny * vy
-        ddx = ta * (s * vy - kp * vx) - ke * ndot * nx
-        ddy = ta * (-s * vx - kp * vy) - ke * ndot * ny
-        chid = (dx * ddy - dy * ddx) / (dn2 if dn2 > _FIELD_FLOOR_SQ else _FIELD_FLOOR_SQ)
-    else:
-        mx, my = ux, uy
-        chid = 0.0
-    e = ux * my - uy * mx
-    if ux * mx + uy * my < 0.0:
-        e = -1.0 if e < 0.0 else 1.0
-    along = cpsi * vx + spsi * vy
-    floor = _ALONG_FLOOR * va
-    u = v2 / (va * (along if along > floor else floor)) * (chid + kd * e)
-    if u != u:  # NaN from an overflow (inf · 0) of absurdly large inputs
-        raise ValueError(f"VectorFieldGuidance: overflow in the heading-rate command at ({x}, {y})")
-    return rmax if u > rmax else (-rmax if u < -rmax else u)
+    vx, vy = float(ground_velocity[0]), float(ground_velocity[1])
+    return _CourseRate(a, s, ke, nx, ny, kp, dx, dy, dn2, vx, vy)
 
 
 def HeadingRateCommand(
@@ -153,24 +120,45 @@ def HeadingRateCommand(
     max_heading_rate: float,
 ) -> float:
     """u_ψ [rad/s] of the wind-corrected guiding-vector-field law (module docstring), saturated at
-    ±max_heading_rate. ``path`` is a descriptor [a, b_x, b_y, c, s, k_e] (its own k_e is used)."""
-    a, bx, by, c, s, ke = (float(v) for v in path)
-    return _Command(
-        float(position[0]),
-        float(position[1]),
-        float(ground_velocity[0]),
-        float(ground_velocity[1]),
-        float(heading),
-        a,
-        bx,
-        by,
-        c,
-        s,
-        ke,
-        float(airspeed),
-        float(k_d),
-        float(max_heading_rate),
-    )
+    ±max_heading_rate. ``path`` is a descriptor [a, b_x, b_y, c, s, k_e] (its own k_e is used).
+    Plain floats (sequences of them for ``position``, ``ground_velocity`` and ``path``)."""
+    x, y = position[0], position[1]
+    vx, vy = ground_velocity[0], ground_velocity[1]
+    a, bx, by, c, s, ke = path
+    psi, va = heading, airspeed
+    if not math.isfinite(x + y + vx + vy + psi + a + bx + by + c + s + ke):
+        raise ValueError(
+            "VectorFieldGuidance: non-finite input: "
+            f"position=({x}, {y}), ground_velocity=({vx}, {vy}), heading={psi}, "
+            f"path=[{a}, {bx}, {by}, {c}, {s}, {ke}]"
+        )
+    nx, ny, kp, dx, dy = _Field(a, bx, by, c, s, ke, x, y)
+    dn2 = dx * dx + dy * dy
+    cpsi = math.cos(psi)
+    spsi = math.sin(psi)
+    v2 = vx * vx + vy * vy
+    if v2 > _SPEED_EPS * _SPEED_EPS:
+        v = math.sqrt(v2)
+        ux, uy = vx / v, vy / v
+    else:
+        ux, uy = cpsi, spsi
+    if dn2 > _FIELD_EPS * _FIELD_EPS:
+        dn = math.sqrt(dn2)
+        mx, my = dx / dn, dy / dn
+        chid = _CourseRate(a, s, ke, nx, ny, kp, dx, dy, dn2, vx, vy)
+    else:
+        mx, my = ux, uy
+        chid = 0.0
+    e = ux * my - uy * mx
+    if ux * mx + uy * my < 0.0:
+        e = -1.0 if e < 0.0 else 1.0
+    along = cpsi * vx + spsi * vy
+    floor = _ALONG_FLOOR * va
+    u = v2 / (va * (along if along > floor else floor)) * (chid + k_d * e)
+    if u != u:  # NaN from an overflow (inf · 0) of absurdly large inputs
+        raise ValueError(f"VectorFieldGuidance: overflow in the heading-rate command at ({x}, {y})")
+    r = max_heading_rate
+    return r if u > r else (-r if u < -r else u)
 
 
 class VectorFieldGuidance(LeafSystem):
@@ -178,14 +166,15 @@ class VectorFieldGuidance(LeafSystem):
 
     u_ψ = ‖ṗ‖² / (v_a m(ψ)ᵀṗ) · (χ̇_d + k_d ṗ̂ × m̂_d), saturated at ±ψ̇_max, with the guiding field
     ṗ_d = s E∇φ − k_e φ ∇φ of the active path descriptor [a, b_x, b_y, c, s, k_e] (paper 001 Eq. 8;
-    the full law, its derivation and its guards are in the :mod:`eaplan_drake.guidance` docstring).
-    The descriptor carries its own k_e [1/m]; ``guidance.k_d`` [rad/s] is the course-alignment
-    gain (``guidance.k_e`` is the default the plan generators put into descriptors). An all-zero
-    descriptor (no path) commands u_ψ = 0 (straight flight).
+    the full law, its derivation and its guards are in the :mod:`eaplan_drake.guidance` docstring;
+    the output is :func:`HeadingRateCommand`). The descriptor carries its own k_e [1/m];
+    ``guidance.k_d`` [rad/s] is the course-alignment gain (``guidance.k_e`` is the default the
+    plan generators put into descriptors). An all-zero descriptor (no path) commands u_ψ = 0
+    (straight flight).
 
     Args:
-        airspeed: v_a [m/s], > 0.
-        guidance: :class:`~eaplan_drake.params.GuidanceParams` (validated).
+        guidance: :class:`~eaplan_drake.params.GuidanceParams` (validated, copied).
+        airspeed: v_a [m/s], > 0 (the scenario's ``vehicle.airspeed``).
         max_heading_rate: ψ̇_max [rad/s], > 0 (the plant's, e.g. ``plant.MaxHeadingRate``).
         wind_speed: optional ‖w‖ [m/s]; if given it must be in [0, airspeed) (ValueError
             otherwise). The wind itself is not an input: the measured ground velocity carries it.
@@ -207,8 +196,9 @@ class VectorFieldGuidance(LeafSystem):
 
     def __init__(
         self,
-        airspeed: float,
         guidance: GuidanceParams,
+        *,
+        airspeed: float,
         max_heading_rate: float,
         wind_speed: float | None = None,
     ):
@@ -226,10 +216,10 @@ class VectorFieldGuidance(LeafSystem):
         guidance.Validate("guidance")
         if wind_speed is not None:
             CheckWindBelowAirspeed(float(wind_speed), float(airspeed))
+        self._guidance = copy.deepcopy(guidance)
         self._airspeed = float(airspeed)
         self._k_d = float(guidance.k_d)
         self._max_rate = float(max_heading_rate)
-        self._guidance = guidance
 
         self._position_port = self.DeclareVectorInputPort("position", 2)
         self._ground_velocity_port = self.DeclareVectorInputPort("ground_velocity", 2)
@@ -262,24 +252,13 @@ class VectorFieldGuidance(LeafSystem):
         return self._command_port
 
     def _CalcCommand(self, context, output):
-        x, y = self._position_port.Eval(context).tolist()
-        vx, vy = self._ground_velocity_port.Eval(context).tolist()
-        psi = self._heading_port.Eval(context)[0]
-        a, bx, by, c, s, ke = self._path_port.Eval(context).tolist()
         output.SetAtIndex(
             0,
-            _Command(
-                x,
-                y,
-                vx,
-                vy,
-                float(psi),
-                a,
-                bx,
-                by,
-                c,
-                s,
-                ke,
+            HeadingRateCommand(
+                self._position_port.Eval(context).tolist(),
+                self._ground_velocity_port.Eval(context).tolist(),
+                float(self._heading_port.Eval(context)[0]),
+                self._path_port.Eval(context).tolist(),
                 self._airspeed,
                 self._k_d,
                 self._max_rate,

@@ -431,7 +431,13 @@ def _StatesFinite(diagram, root_context) -> bool:
     """Whether the aircraft's state (x, y, ψ), the estimator's q̂ and P and the SoC are finite
     (the sensor's NaN of a dropped sample is not a failure)."""
     plant = diagram.GetSubsystemByName("plant")
-    x = plant.GetMyContextFromRoot(root_context).get_continuous_state_vector().CopyToVector()
+    plant_context = plant.GetMyContextFromRoot(root_context)
+    x = np.concatenate(
+        [
+            port.Eval(plant_context)
+            for port in (plant.GetOutputPort("position"), plant.GetOutputPort("heading"))
+        ]
+    )
     estimator = diagram.GetSubsystemByName("estimator")
     context = estimator.GetMyContextFromRoot(root_context)
     q = estimator.GetOutputPort("energy_coefficients").Eval(context)

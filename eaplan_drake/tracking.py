@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from eaplan_drake.params import CoverageParams, GuidanceParams, VehicleParams
+from eaplan_drake.params import Scenario
 
 __all__ = ["FlyTracking", "MakeTrackingDiagram", "PathError", "TRACKING_SIGNALS"]
 
@@ -38,59 +38,30 @@ def PathError(positions, descriptors) -> np.ndarray:
     return d[:, 0] * np.sum(p * p, axis=1) + d[:, 1] * p[:, 0] + d[:, 2] * p[:, 1] + d[:, 3]
 
 
-def MakeTrackingDiagram(
-    plan,
-    c1: float,
-    wind,
-    vehicle: VehicleParams | None = None,
-    guidance: GuidanceParams | None = None,
-    trigger_radius: float | None = None,
-    log_period: float = 0.1,
-):
+def MakeTrackingDiagram(scenario: Scenario, plan, c1: float, *, log_period: float | None = None):
     """The guidance loop flying ``plan`` (a :class:`~eaplan_drake.coverage.PlanSource`) at the
-    constant path parameter ``c1`` [m²] in the constant ``wind`` [m/s] (2-vector). Systems are
-    named ``plant``, ``guidance``, ``sequencer``, ``wind``, ``path_parameters``; the signals of
-    :data:`TRACKING_SIGNALS` are logged every ``log_period`` [s] and ``mission_complete`` is
-    exported."""
+    constant path parameter ``c1`` [m²], with the scenario's vehicle, guidance gains, constant
+    wind, ``coverage.trigger_radius`` and plant (``simulation.plant``,
+    :func:`~eaplan_drake.plant.MakeFixedWingPlant`). Systems are named ``plant``, ``guidance``,
+    ``sequencer``, ``wind``, ``path_parameters``; the signals of :data:`TRACKING_SIGNALS` are
+    logged every ``log_period`` [s] (default ``simulation.log_period``) and ``mission_complete``
+    is exported."""
     from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
+    from pydrake.systems.primitives import LogVectorOutput
 
-    from eaplan_drake.guidance import VectorFieldGuidance
-    from eaplan_drake.plant import FixedWingPlant, MaxHeadingRate
-    from eaplan_drake.sequencer import StageSequencer
+    from eaplan_drake.diagram import AddGuidedAircraft
 
-    vehicle = vehicle or VehicleParams()
-    guidance = guidance or GuidanceParams()
-    if trigger_radius is None:
-        trigger_radius = CoverageParams().trigger_radius
-    w = np.asarray(wind, dtype=float).reshape(2)
-    if not np.all(np.isfinite(w)) or not np.isfinite(c1):
-        raise ValueError(f"wind and c1 must be finite, got {w.tolist()}, {c1}")
+    scenario.wind.Validate("wind")
+    scenario.simulation.Validate("simulation")
+    if not np.isfinite(c1):
+        raise ValueError(f"c1 must be finite, got {c1}")
+    if log_period is None:
+        log_period = scenario.simulation.log_period
     builder = DiagramBuilder()
-    plant = builder.AddNamedSystem("plant", FixedWingPlant(vehicle))
-    ctrl = builder.AddNamedSystem(
-        "guidance",
-        VectorFieldGuidance(
-            vehicle.airspeed,
-            guidance,
-            MaxHeadingRate(vehicle),
-            wind_speed=float(np.hypot(*w)),
-        ),
+    aircraft = AddGuidedAircraft(
+        builder, scenario, plan, initial_path_parameter=c1, path_parameter=float(c1)
     )
-    seq = builder.AddNamedSystem(
-        "sequencer", StageSequencer(plan, initial_c1=c1, trigger_radius=trigger_radius)
-    )
-    wind_source = builder.AddNamedSystem("wind", ConstantVectorSource(w))
-    c1_source = builder.AddNamedSystem("path_parameters", ConstantVectorSource([float(c1)]))
-    builder.Connect(wind_source.get_output_port(), plant.GetInputPort("wind"))
-    for name in ("position", "ground_velocity", "heading"):
-        builder.Connect(plant.GetOutputPort(name), ctrl.GetInputPort(name))
-    builder.Connect(plant.GetOutputPort("position"), seq.GetInputPort("position"))
-    builder.Connect(seq.GetOutputPort("path"), ctrl.GetInputPort("path"))
-    builder.Connect(
-        ctrl.GetOutputPort("heading_rate_command"), plant.GetInputPort("heading_rate_command")
-    )
-    builder.Connect(c1_source.get_output_port(), seq.GetInputPort("path_parameters"))
+    plant, seq = aircraft.plant, aircraft.sequencer
     systems = {"plant": plant, "sequencer": seq}
     for name, (system, port) in TRACKING_SIGNALS.items():
         logger = LogVectorOutput(
@@ -103,16 +74,27 @@ def MakeTrackingDiagram(
     return diagram
 
 
-def FlyTracking(plan, c1: float, wind, t_max: float = 1200.0, **kwargs) -> dict:
-    """Flies :func:`MakeTrackingDiagram` (``kwargs`` go to it) until the survey is complete or
-    ``t_max`` [s]. Returns the logged signals (``t`` [s] and one array per signal, samples along
+def FlyTracking(
+    scenario: Scenario,
+    plan,
+    c1: float,
+    *,
+    t_max: float | None = None,
+    log_period: float | None = None,
+) -> dict:
+    """Flies :func:`MakeTrackingDiagram` until the survey is complete or ``t_max`` [s] (default
+    ``simulation.time_limit``), the continuous plant with the scenario's ``integrator`` and
+    ``max_step``. Returns the logged signals (``t`` [s] and one array per signal, samples along
     axis 0), ``phi`` (:func:`PathError`) [m], ``t_end`` [s], ``complete`` and ``wall`` (the wall
     time [s], for information only)."""
-    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
     from pydrake.systems.framework import EventStatus
 
-    diagram = MakeTrackingDiagram(plan, c1, wind, **kwargs)
+    diagram = MakeTrackingDiagram(scenario, plan, c1, log_period=log_period)
     simulator = Simulator(diagram)
+    ResetIntegratorFromFlags(
+        simulator, scenario.simulation.integrator, scenario.simulation.max_step
+    )
     done = diagram.GetOutputPort("mission_complete")
 
     def monitor(root):
@@ -122,7 +104,7 @@ def FlyTracking(plan, c1: float, wind, t_max: float = 1200.0, **kwargs) -> dict:
 
     simulator.set_monitor(monitor)
     wall = time.perf_counter()
-    simulator.AdvanceTo(t_max)
+    simulator.AdvanceTo(scenario.simulation.time_limit if t_max is None else t_max)
     wall = time.perf_counter() - wall
     ctx = simulator.get_context()
     flight = {}

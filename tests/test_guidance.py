@@ -17,7 +17,13 @@ from eaplan_drake.guidance import (
 )
 from eaplan_drake.params import GuidanceParams, ScenarioError, VehicleParams
 from eaplan_drake.paths import Circle, Line
-from eaplan_drake.plant import FixedWingDynamics, FixedWingPlant, GroundVelocity, MaxHeadingRate
+from eaplan_drake.plant import (
+    FixedWingArcPlant,
+    FixedWingDynamics,
+    FixedWingPlant,
+    GroundVelocity,
+    MaxHeadingRate,
+)
 
 VA = 15.0
 WIND = 5.0
@@ -173,23 +179,23 @@ def test_non_finite_input_raises():
 def test_constructor_errors():
     g = GuidanceParams()
     with pytest.raises(ValueError, match=r"wind_speed must be in \[0, airspeed = 15\)"):
-        VectorFieldGuidance(15.0, g, RMAX, wind_speed=15.0)
+        VectorFieldGuidance(g, airspeed=15.0, max_heading_rate=RMAX, wind_speed=15.0)
     with pytest.raises(ValueError, match="wind_speed"):
-        VectorFieldGuidance(15.0, g, RMAX, wind_speed=-1.0)
+        VectorFieldGuidance(g, airspeed=15.0, max_heading_rate=RMAX, wind_speed=-1.0)
     with pytest.raises(ValueError, match="airspeed must be > 0"):
-        VectorFieldGuidance(0.0, g, RMAX)
+        VectorFieldGuidance(g, airspeed=0.0, max_heading_rate=RMAX)
     with pytest.raises(ValueError, match="max_heading_rate must be > 0"):
-        VectorFieldGuidance(15.0, g, 0.0)
+        VectorFieldGuidance(g, airspeed=15.0, max_heading_rate=0.0)
     with pytest.raises(ScenarioError, match=r"guidance\.k_d: must be > 0"):
-        VectorFieldGuidance(15.0, GuidanceParams(k_d=0.0), RMAX)
+        VectorFieldGuidance(GuidanceParams(k_d=0.0), airspeed=15.0, max_heading_rate=RMAX)
     with pytest.raises(ValueError, match="wind_speed"):
         CheckWindBelowAirspeed(20.0, 15.0)
     CheckWindBelowAirspeed(14.9, 15.0)
-    VectorFieldGuidance(15.0, g, RMAX, wind_speed=5.0)
+    VectorFieldGuidance(g, airspeed=15.0, max_heading_rate=RMAX, wind_speed=5.0)
 
 
 def test_ports_and_output_matches_pure_function():
-    sys = VectorFieldGuidance(VA, GuidanceParams(), RMAX)
+    sys = VectorFieldGuidance(GuidanceParams(), airspeed=VA, max_heading_rate=RMAX)
     sizes = {"position": 2, "ground_velocity": 2, "heading": 1, "path": 6}
     assert sys.num_input_ports() == 4 and sys.num_output_ports() == 1
     for name, size in sizes.items():
@@ -208,6 +214,21 @@ def test_ports_and_output_matches_pure_function():
         sys.GetInputPort("path").FixValue(ctx, d)
         u = sys.GetOutputPort("heading_rate_command").Eval(ctx)[0]
         assert u == HeadingRateCommand(p, v, psi, d, VA, KD, RMAX)
+
+
+def test_guidance_keeps_its_own_copy_of_the_gains():
+    params = GuidanceParams(k_d=1.0)
+    sys = VectorFieldGuidance(params, airspeed=VA, max_heading_rate=RMAX)
+    params.k_d = 2.0
+    ctx = sys.CreateDefaultContext()
+    d = Line([0.0, 0.0], [1.0, 0.0], s=1.0, k_e=KE).descriptor()
+    psi = -math.pi / 2 + 0.5
+    v = VA * np.array([math.cos(psi), math.sin(psi)])
+    for name, value in (("position", [0.0, 0.0]), ("ground_velocity", v), ("path", d)):
+        sys.GetInputPort(name).FixValue(ctx, value)
+    sys.GetInputPort("heading").FixValue(ctx, [psi])
+    u = sys.GetOutputPort("heading_rate_command").Eval(ctx)[0]
+    assert u == HeadingRateCommand([0.0, 0.0], v, psi, d, VA, 1.0, RMAX)
 
 
 # -- closed-loop tracking (pure functions, fixed-step RK4) --------------------------------------
@@ -285,13 +306,18 @@ def test_converges_from_the_circle_centre(wind_deg):
 # -- a short Simulator run of plant + guidance ---------------------------------------------------
 
 
-def _Diagram(path, wind, x0):
+def _Diagram(path, wind, x0, arc_step=None):
     vehicle = VehicleParams(initial_position=list(x0[:2]), initial_heading_deg=math.degrees(x0[2]))
     builder = DiagramBuilder()
-    plant = builder.AddNamedSystem("plant", FixedWingPlant(vehicle))
+    if arc_step is None:
+        plant = builder.AddNamedSystem("plant", FixedWingPlant(vehicle))
+    else:
+        plant = builder.AddNamedSystem("plant", FixedWingArcPlant(vehicle, step=arc_step))
     guidance = builder.AddNamedSystem(
         "guidance",
-        VectorFieldGuidance(VA, GuidanceParams(), MaxHeadingRate(vehicle), wind_speed=WIND),
+        VectorFieldGuidance(
+            GuidanceParams(), airspeed=VA, max_heading_rate=MaxHeadingRate(vehicle), wind_speed=WIND
+        ),
     )
     w = builder.AddSystem(ConstantVectorSource(np.asarray(wind, dtype=float)))
     p = builder.AddSystem(ConstantVectorSource(path.descriptor()))
@@ -309,15 +335,24 @@ def _Diagram(path, wind, x0):
 
 
 @pytest.mark.parametrize(
-    "integrator, max_step", [("runge_kutta2", 0.01), ("runge_kutta2", 0.05), (None, None)]
+    "integrator, max_step",
+    [
+        ("runge_kutta2", 0.01),
+        ("runge_kutta2", 0.05),
+        (None, None),
+        ("exact_arc", 0.01),
+        ("exact_arc", 0.05),
+    ],
 )
 def test_simulator_plant_and_guidance_on_circle(integrator, max_step):
     """The Diagram (no algebraic loop) tracks a 70 m circle in 5 m/s wind with Drake's
-    integrators: RK2 fixed step 0.01 s / 0.05 s, and the default error-controlled RK3."""
+    integrators: RK2 fixed step 0.01 s / 0.05 s, and the default error-controlled RK3; and with
+    the exact-arc plant stepped at 0.01 s / 0.05 s (command held over the step)."""
     circle = Circle([0.0, 0.0], 70.0, s=1.0, k_e=KE)
-    diagram, pos, cmd, power = _Diagram(circle, _Wind(45.0), [170.0, 0.0, 0.0])
+    arc_step = max_step if integrator == "exact_arc" else None
+    diagram, pos, cmd, power = _Diagram(circle, _Wind(45.0), [170.0, 0.0, 0.0], arc_step)
     sim = Simulator(diagram)
-    if integrator is not None:
+    if integrator not in (None, "exact_arc"):
         ResetIntegratorFromFlags(sim, integrator, max_step)
     sim.AdvanceTo(80.0)
     ctx = sim.get_context()

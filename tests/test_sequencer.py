@@ -314,7 +314,7 @@ def _Fly(plan, c1, wind, t_max=1000.0):
     plant = builder.AddSystem(plant_mod.FixedWingPlant(vehicle))
     ctrl = builder.AddSystem(
         guidance_mod.VectorFieldGuidance(
-            vehicle.airspeed, guidance, plant_mod.MaxHeadingRate(vehicle)
+            guidance, airspeed=vehicle.airspeed, max_heading_rate=plant_mod.MaxHeadingRate(vehicle)
         )
     )
     w = builder.AddSystem(ConstantVectorSource(np.asarray(wind, dtype=float)))
