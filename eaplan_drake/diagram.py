@@ -131,7 +131,9 @@ def MakeEaplanDiagram(
             initial_q=_InitialCoefficients(scenario),
         ),
     )
-    battery = builder.AddNamedSystem("battery", Battery(scenario.battery))
+    battery = builder.AddNamedSystem(
+        "battery", Battery(scenario.battery, time_step=scenario.simulation.max_step)
+    )
     planner = builder.AddNamedSystem(
         "planner",
         PlannerScheduler(
