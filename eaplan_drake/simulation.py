@@ -330,6 +330,10 @@ def Simulate(
     scenario or argument raises :class:`ScenarioError` (one line naming the key or argument)
     before anything is flown. A state or command that becomes NaN or infinite ends the flight
     with status ``numerical_failure``.
+
+    The flight ends at the update that decides it (the sequencer's for "complete", the battery's
+    for "brownout" and "reserve_reached", all updates at that time applied), so ``duration`` is
+    that update's time and ``final_soc`` the battery's SoC after it.
     """
     _CheckSimulateArguments(scenario, progress, progress_interval, policy)
     if policy is None and scenario.Validate().planner.policy == "hindsight":
@@ -350,7 +354,6 @@ def Simulate(
         )
     except NonFiniteCommandError:
         status = STATUS_NUMERICAL
-    wall_time = time.perf_counter() - wall_start
     wall_time = time.perf_counter() - wall_start
 
     log = _CollectLog(diagram, context)
