@@ -52,6 +52,27 @@ def test_current_solves_the_rint_quadratic():
     assert isinstance(RintCurrent(33.0, V, R), float)
 
 
+def test_scalar_and_array_evaluations_agree_bit_for_bit():
+    # One expression, evaluated with math for a scalar and numpy for an array.
+    p = Reference()
+    y = np.array([-5.0, 0.0, 1e-9, 12.5, 33.0, 0.5 * MaxDeliverablePower(V, R), 1e12])
+    b0 = np.array([0.9, 0.5, 1.0, 0.3, 0.05, 0.7, 0.2])
+    current = RintCurrent(y, V, R)
+    soc = SocAfter(b0, y, 0.01, p)
+    brown = IsBrownout(y, V, R)
+    for k in range(y.size):
+        assert RintCurrent(float(y[k]), V, R) == current[k]
+        assert RintCurrent(np.float64(y[k]), V, R) == current[k]
+        assert SocAfter(float(b0[k]), float(y[k]), 0.01, p) == soc[k]
+        assert IsBrownout(float(y[k]), V, R) == brown[k]
+    assert isinstance(SocAfter(0.9, 33.0, 1.0, p), float)
+    assert isinstance(IsBrownout(33.0, V, R), bool)
+    assert RintCurrent([33.0, 1.0], V, R).shape == (2,)
+    assert math.isnan(RintCurrent(math.nan, V, R))
+    assert np.isnan(RintCurrent(np.array([math.nan]), V, R)[0])
+    assert math.isnan(SocAfter(0.5, math.nan, 1.0, p))
+
+
 def test_negative_power_gives_negative_current():
     current = RintCurrent(-5.0, V, R)
     assert current < 0.0
