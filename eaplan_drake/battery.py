@@ -251,7 +251,7 @@ class Battery(LeafSystem):
 
     def _Update(self, context, discrete_state):
         p = self._params
-        x = BatteryState(context.get_discrete_state_vector().value())
+        x = BatteryState(context.get_discrete_state_vector().value().tolist())
         y = self._Power(context)
         b = SocAfter(x.soc, x.held_power, self._time_step, p)
         k = int(x.next_fault)
