@@ -412,7 +412,8 @@ def _AdvanceInChunks(simulator, diagram, time_limit, progress, progress_interval
     ``EventStatus.ReachedTermination`` with the status as message (the sequencer "complete",
     the battery "brownout" or "reserve_reached"); ``AdvanceTo`` then stops at that update and its
     ``SimulatorStatus`` carries the message. If the survey completed at the same update as a
-    battery event, "complete" wins. Between such events the flight advances in chunks that end
+    battery event, "complete" wins. Another system's termination gives the status
+    "ended by <system name>: <message>". Between such events the flight advances in chunks that end
     every :data:`NUMERICS_CHECK_PERIOD` (the states are checked to be finite) and at the
     progress times. Every chunk boundary is an update time k·h of the battery (h its time step,
     computed as Drake computes periodic event times), where a step ends anyway, so the chunks do
@@ -442,7 +443,11 @@ def _AdvanceInChunks(simulator, diagram, time_limit, progress, progress_interval
         if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
             if complete_port.Eval(context)[0] > 0.5:
                 return STATUS_COMPLETE
-            return status.message()
+            if status.message() in (STATUS_BROWNOUT, STATUS_RESERVE, STATUS_COMPLETE):
+                return status.message()
+            system = status.system()
+            name = system.get_name() if system is not None else "a system"
+            return f"ended by {name}: {status.message()}"
 
 
 def _EventTime(t: float, period: float) -> float:
@@ -510,7 +515,9 @@ def EndReason(status: str, time: float, scenario: Scenario, coverage_remaining: 
         return f"battery browned out (load above V²/(4 R_r)) at {time:.1f} s, {left}"
     if status == STATUS_NUMERICAL:
         return f"a state became non-finite at {time:.1f} s (numerical failure), {left}"
-    return f"time limit {scenario.simulation.time_limit:g} s reached, {left}"
+    if status == STATUS_TIME_LIMIT:
+        return f"time limit {scenario.simulation.time_limit:g} s reached, {left}"
+    return f"{status} at {time:.1f} s, {left}"
 
 
 def _CollectLog(diagram, context) -> FlightLog:

@@ -10,6 +10,7 @@ from eaplan_drake.battery import STATUS_BROWNOUT, STATUS_RESERVE
 from eaplan_drake.graphviz import CanonicalDot
 from eaplan_drake.params import LoadScenario
 from eaplan_drake.simulation import (
+    EndReason,
     FlightLog,
     LoadFlightLog,
     QualityMetric,
@@ -107,3 +108,16 @@ def test_brownout_ends_the_flight_at_the_first_update():
     assert log.summary["status"] == STATUS_BROWNOUT == "brownout"
     assert log.summary["duration"] == 0.0
     assert log.summary["final_soc"] == 1.0
+
+
+def test_end_reason_names_each_status():
+    scenario = LoadScenario(data="simulation: {time_limit: 100}\n")
+    assert EndReason("complete", 394.65, scenario, 0.0) == "survey complete at 394.6 s"
+    assert "reserve SoC 0.3 at 12.0 s, 40 % of the survey left" in EndReason(
+        "reserve_reached", 12.0, scenario, 0.4
+    )
+    assert EndReason("brownout", 0.0, scenario, 1.0).startswith("battery browned out")
+    assert EndReason("time_limit", 100.0, scenario, 0.5).startswith("time limit 100 s reached")
+    assert EndReason("ended by x: stop", 5.0, scenario, 0.5) == (
+        "ended by x: stop at 5.0 s, 50 % of the survey left"
+    )
