@@ -24,15 +24,20 @@ dimensionally Q_c·V is an energy (Ah·V = Wh). We keep the papers' number and n
 budget: "the power budget at full charge (Q_c·V, read as watts) times b".
 """
 
+import copy
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.common.containers import namedview
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from eaplan_drake.params import BatteryParams
 
 __all__ = [
+    "STATUS_BROWNOUT",
+    "STATUS_RESERVE",
     "Battery",
+    "BatteryState",
     "IsBrownout",
     "MaxDeliverablePower",
     "PowerBudget",
@@ -53,8 +58,9 @@ def IsBrownout(power, V, R_r):
 
     Returns a bool for scalar input, else a bool array of the broadcast shape.
     """
-    out = np.asarray(power) > MaxDeliverablePower(V, R_r)
-    return bool(out) if out.ndim == 0 else out
+    y, scalar = _Operand(power)
+    out = y > MaxDeliverablePower(V, R_r)
+    return bool(out) if scalar else out
 
 
 def RintCurrent(power, V, R_r):
@@ -62,14 +68,16 @@ def RintCurrent(power, V, R_r):
 
     Evaluated as 2y / (V + sqrt(V² − 4 R_r y)) (no cancellation). A negative power (charging) gives
     a negative current. Above :func:`MaxDeliverablePower` (brown-out) it returns the current at the
-    maximum power, V / (2 R_r), never NaN; use :func:`IsBrownout` to detect that case. A NaN power
-    gives NaN. Scalars give a float; arrays are handled element-wise (numpy broadcasting).
+    maximum power, 2 y_max / V = V / (2 R_r), never NaN; use :func:`IsBrownout` to detect that
+    case. A NaN power gives NaN. Scalars give a float; arrays are handled element-wise (numpy
+    broadcasting). This is the one implementation of the Rint current (the :class:`Battery`
+    system calls it at every update): the same expression is evaluated with ``math`` for a
+    scalar (well under a µs) and with numpy for an array.
     """
-    y = np.asarray(power, dtype=float)
-    disc = np.maximum(V * V - 4.0 * R_r * y, 0.0)
-    y_eff = np.minimum(y, MaxDeliverablePower(V, R_r))
-    current = 2.0 * y_eff / (V + np.sqrt(disc))
-    return float(current) if current.ndim == 0 else current
+    y, scalar = _Operand(power)
+    sqrt, minimum, maximum = _SCALAR_OPS if scalar else _ARRAY_OPS
+    disc = maximum(V * V - 4.0 * R_r * y, 0.0)
+    return 2.0 * minimum(y, MaxDeliverablePower(V, R_r)) / (V + sqrt(disc))
 
 
 def SocDerivative(power, params: BatteryParams):
@@ -84,10 +92,32 @@ def SocDerivative(power, params: BatteryParams):
 def SocAfter(b0, power, duration, params: BatteryParams):
     """Exact state of charge after ``duration`` [s] at constant ``power`` [W] from ``b0`` [-].
 
-    b = b0 + ḃ·duration, clipped to [0, 1] (the battery neither goes below empty nor above full).
+    b = clip(b0 − I(y) · (k_b · duration / Q_c), 0, 1) (Lemma III.3 integrated over a constant
+    load; the battery neither goes below empty nor above full). This is the step of the
+    :class:`Battery` system (``duration`` = its time step h). Scalars give a float; arrays
+    broadcast element-wise.
     """
-    b = np.clip(np.asarray(b0, dtype=float) + SocDerivative(power, params) * duration, 0.0, 1.0)
-    return float(b) if b.ndim == 0 else b
+    b0, _ = _Operand(b0)
+    current = RintCurrent(power, params.voltage, params.internal_resistance)
+    b, scalar = _Operand(b0 - current * (params.k_b / params.capacity * duration))
+    _, minimum, maximum = _SCALAR_OPS if scalar else _ARRAY_OPS
+    return minimum(maximum(b, 0.0), 1.0)
+
+
+_SCALAR_OPS = (math.sqrt, min, max)
+_ARRAY_OPS = (np.sqrt, np.minimum, np.maximum)
+_SCALAR_TYPES = (float, int)
+
+
+def _Operand(value) -> tuple:
+    """(value as a float, True) for a Python or numpy scalar, else (a float array, False): the
+    functions above evaluate one expression with ``math`` for scalars and numpy for arrays."""
+    if isinstance(value, _SCALAR_TYPES):
+        return float(value), True
+    array = np.asarray(value, dtype=float)
+    if array.ndim == 0:
+        return float(array), True
+    return array, False
 
 
 def TimeToSoc(b0, b_target, power, params: BatteryParams):
@@ -111,11 +141,21 @@ def PowerBudget(b, params: BatteryParams):
 
     The papers call this a power; Q_c·V [Ah·V] is the budget at full charge, scaled by b.
     """
-    budget = np.asarray(b, dtype=float) * (params.capacity * params.voltage)
+    budget = np.multiply(b, params.capacity * params.voltage)
     return float(budget) if budget.ndim == 0 else budget
 
 
 # -- Drake system -------------------------------------------------------------------------------
+
+
+BatteryState = namedview("BatteryState", ["soc", "held_power", "next_fault"])
+"""The Battery's discrete state: b [-], the load y(t_{k−1}) [W] held over the step, and the
+index of the next fault (in time order) [-]."""
+
+STATUS_BROWNOUT = "brownout"
+"""Message of the ``ReachedTermination`` event status when the load exceeds V²/(4R_r)."""
+STATUS_RESERVE = "reserve_reached"
+"""Message of the ``ReachedTermination`` event status when b reaches the reserve SoC."""
 
 
 class Battery(LeafSystem):
@@ -124,19 +164,27 @@ class Battery(LeafSystem):
     Discrete state, updated every ``time_step`` h [s] at t_k = k·h (the load is sampled and held,
     so the step is exact for a piecewise-constant load):
 
-        b(t_k) = clip(b(t_{k−1}) − k_b I(y(t_{k−1})) h / Q_c, 0, 1) − Σ_{τ ∈ (t_{k−1}, t_k]} Δb
+        b(t_k) = SocAfter(b(t_{k−1}), y(t_{k−1}), h) − Σ_{τ ∈ (t_{k−1}, t_k]} Δb
 
-    (clipped at 0 again after the faults Δb), with I(y) of :func:`RintCurrent`. A fault (τ, Δb) is
-    applied exactly once, by the first update at t_k ≥ τ (1e-9 s tolerance for the floating-point
-    event times); Δb is an absolute drop (0.06 = −6 % of full charge). The very first update
-    (t = 0) only samples the load and applies faults with τ ≤ 0. The SoC never goes below 0.
+    (clipped at 0 after each fault Δb), with :func:`SocAfter` = clip(b − k_b I(y) h / Q_c, 0, 1)
+    and I(y) of :func:`RintCurrent`. A fault (τ, Δb) is applied exactly once, by the first update
+    at t_k ≥ τ (1e-9 s tolerance for the floating-point event times); Δb is an absolute drop
+    (0.06 = −6 % of full charge). The very first update (t = 0) only samples the load and applies
+    faults with τ ≤ 0. The SoC never goes below 0.
+
+    Termination: the update at t_k ends the simulation (it returns
+    ``EventStatus.ReachedTermination(self, message)``, its state update still applied) with the
+    message :data:`STATUS_BROWNOUT` ("brownout") when the sampled load y(t_k) exceeds V²/(4R_r),
+    else :data:`STATUS_RESERVE` ("reserve_reached") when b(t_k) ≤ ``params.reserve_soc``.
+    ``Simulator.AdvanceTo`` then returns a status whose ``message()`` is that string.
 
     Outputs: ``soc`` b(t_k) [-] and ``power_budget`` b·Q_c·V (Def. III.3, see :func:`PowerBudget`)
     depend on the state only; ``current`` I(y(t)) [A] and ``brownout`` (1.0 when y(t) > V²/(4R_r),
-    else 0.0) are direct feedthrough of ``power``. Above V²/(4R_r) the current is V/(2R_r) and the
-    SoC falls at that current (never NaN). A non-finite ``power`` raises RuntimeError.
+    else 0.0, :func:`IsBrownout`) are direct feedthrough of ``power``. Above V²/(4R_r) the current
+    is V/(2R_r) and the SoC falls at that current (never NaN). A non-finite ``power`` raises
+    RuntimeError.
 
-    Discrete state vector: [b, held load power y(t_{k−1}) [W], index of the next fault].
+    The discrete state is :data:`BatteryState`. The system keeps a copy of ``params``.
 
     .. pydrake_system::
 
@@ -150,30 +198,21 @@ class Battery(LeafSystem):
         - brownout
     """
 
-    def __init__(self, params: BatteryParams, time_step: float = 0.01):
+    def __init__(self, params: BatteryParams, *, time_step: float):
         super().__init__()
         params.Validate("battery")
         h = float(time_step) if isinstance(time_step, (int, float)) else math.nan
         if not (math.isfinite(h) and h > 0.0):
             raise ValueError(f"time_step: must be a finite number > 0 [s], got {time_step!r}")
-        self._params = params
+        self._params = copy.deepcopy(params)
         self._time_step = h
-        self._V = float(params.voltage)
-        self._R = float(params.internal_resistance)
-        self._V2 = self._V * self._V
-        self._four_R = 4.0 * self._R
-        self._p_max = MaxDeliverablePower(self._V, self._R)
-        self._i_max = self._V / (2.0 * self._R)
-        self._rate_per_amp_step = float(params.k_b) / float(params.capacity) * h  # Δb per A·step
-        self._budget_per_soc = float(params.capacity) * float(params.voltage)
-        faults = sorted(params.faults, key=lambda f: f.time)
-        self._fault_times = [float(f.time) - 1e-9 for f in faults]
-        self._fault_drops = [float(f.soc_drop) for f in faults]
+        self._faults = sorted(self._params.faults, key=lambda f: f.time)
+        self._fault_times = [float(f.time) - 1e-9 for f in self._faults]
 
         self._power_port = self.DeclareVectorInputPort("power", 1)
-        self._state_index = self.DeclareDiscreteState(
-            np.array([float(params.initial_soc), 0.0, 0.0])
-        )
+        x0 = BatteryState.Zero()
+        x0.soc = float(params.initial_soc)
+        self._state_index = self.DeclareDiscreteState(x0[:])
         self.DeclarePeriodicDiscreteUpdateEvent(h, 0.0, self._Update)
         state_only = {self.xd_ticket()}
         from_input = {self._power_port.ticket()}
@@ -197,14 +236,10 @@ class Battery(LeafSystem):
 
     @property
     def params(self) -> BatteryParams:
+        """The battery's own copy of its parameters."""
         return self._params
 
-    # -- hot path: scalar math only ------------------------------------------------------------
-
-    def _Current(self, y: float) -> float:
-        if y >= self._p_max:
-            return self._i_max
-        return 2.0 * y / (self._V + math.sqrt(self._V2 - self._four_R * y))
+    # -- hot path ------------------------------------------------------------------------------
 
     def _Power(self, context) -> float:
         y = float(self._power_port.Eval(context)[0])
@@ -214,28 +249,36 @@ class Battery(LeafSystem):
             )
         return y
 
-    def _Update(self, context, discrete_state) -> None:
-        b, y_held, next_fault = context.get_discrete_state_vector().value()
+    def _Update(self, context, discrete_state):
+        p = self._params
+        x = BatteryState(context.get_discrete_state_vector().value().tolist())
         y = self._Power(context)
-        b -= self._Current(y_held) * self._rate_per_amp_step
-        b = 1.0 if b > 1.0 else (0.0 if b < 0.0 else b)
-        k = int(next_fault)
+        b = SocAfter(x.soc, x.held_power, self._time_step, p)
+        k = int(x.next_fault)
         if k < len(self._fault_times):
             t = context.get_time()
             while k < len(self._fault_times) and self._fault_times[k] <= t:
-                b = max(b - self._fault_drops[k], 0.0)
+                b = max(b - self._faults[k].soc_drop, 0.0)
                 k += 1
-        discrete_state.set_value(np.array([b, y, float(k)]))
+        discrete_state.set_value([b, y, float(k)])
+        if IsBrownout(y, p.voltage, p.internal_resistance):
+            return EventStatus.ReachedTermination(self, STATUS_BROWNOUT)
+        if b <= p.reserve_soc:
+            return EventStatus.ReachedTermination(self, STATUS_RESERVE)
+        return None
 
     def _CalcSoc(self, context, output) -> None:
         output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(0))
 
     def _CalcPowerBudget(self, context, output) -> None:
         b = context.get_discrete_state_vector().GetAtIndex(0)
-        output.SetAtIndex(0, b * self._budget_per_soc)
+        output.SetAtIndex(0, PowerBudget(b, self._params))
 
     def _CalcCurrent(self, context, output) -> None:
-        output.SetAtIndex(0, self._Current(self._Power(context)))
+        p = self._params
+        output.SetAtIndex(0, RintCurrent(self._Power(context), p.voltage, p.internal_resistance))
 
     def _CalcBrownout(self, context, output) -> None:
-        output.SetAtIndex(0, 1.0 if self._Power(context) > self._p_max else 0.0)
+        p = self._params
+        brownout = IsBrownout(self._Power(context), p.voltage, p.internal_resistance)
+        output.SetAtIndex(0, 1.0 if brownout else 0.0)

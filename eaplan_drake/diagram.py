@@ -193,7 +193,9 @@ def AddEnergyLoop(
             initial_q=_InitialCoefficients(scenario),
         ),
     )
-    battery = builder.AddNamedSystem("battery", Battery(scenario.battery))
+    battery = builder.AddNamedSystem(
+        "battery", Battery(scenario.battery, time_step=scenario.simulation.max_step)
+    )
     connect = builder.Connect
     connect(motion_power, sensor.GetInputPort("motion_power"))
     connect(computation.GetOutputPort("power"), sensor.GetInputPort("computation_power"))

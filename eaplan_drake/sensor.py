@@ -10,6 +10,7 @@ and is lost (NaN) when u_k < p_drop, u_k ~ U[0, 1). The draws (z_k, u_k) are a p
 whatever the order of evaluation, and no random-generator state lives in the Drake context.
 """
 
+import copy
 import math
 
 import numpy as np
@@ -17,7 +18,7 @@ from pydrake.systems.framework import LeafSystem
 
 from eaplan_drake.params import SensorParams
 
-__all__ = ["BLOCK_SIZE", "NoiseBlock", "NoiseSamples", "PowerSensor"]
+__all__ = ["BLOCK_SIZE", "NoiseBlock", "NoiseSamples", "PowerSample", "PowerSensor"]
 
 BLOCK_SIZE = 4096
 """Samples per pre-generated block of draws."""
@@ -50,6 +51,15 @@ def NoiseSamples(params: SensorParams, first: int, count: int) -> tuple[np.ndarr
     return noise, dropped
 
 
+def PowerSample(true_power: float, noise: float, dropped: bool) -> float:
+    """The measurement equation: Υ_k = y(t_k) + σ z_k [W], or NaN when the sample is dropped.
+
+    ``true_power`` is y(t_k) = P_motion + P_computation [W], ``noise`` the draw σ z_k [W] and
+    ``dropped`` the flag u_k < p_drop of :func:`NoiseSamples` for the same index k.
+    """
+    return math.nan if dropped else true_power + noise
+
+
 class PowerSensor(LeafSystem):
     """Noisy, sampled measurement of the total power drain y = P_motion + P_computation [W].
 
@@ -60,9 +70,11 @@ class PowerSensor(LeafSystem):
     samples. With ``noise_std`` = 0 and no dropout it is exactly the sum at t_k.
     ``true_power`` is the noise-free sum y(t), direct feedthrough.
 
-    The sample index is k = round(t_k · rate), so the draws depend only on (seed, t_k); the
-    current block of draws is cached in the system (a pure function of seed and block number,
-    not state), which keeps the 100 Hz update cheap.
+    The sample is :func:`PowerSample` of the cached ``true_power`` (which the battery reads at the
+    same update) and the draws of index k = round(t_k · rate), so the draws depend only on
+    (seed, t_k); the current block of draws is cached in the system (a pure function of seed and
+    block number, not state), which keeps the 100 Hz update cheap. The system keeps a copy of
+    ``params``.
 
     .. pydrake_system::
 
@@ -78,15 +90,13 @@ class PowerSensor(LeafSystem):
     def __init__(self, params: SensorParams):
         super().__init__()
         params.Validate("sensor")
-        self._params = params
+        self._params = copy.deepcopy(params)
         self._rate = float(params.rate)
         self._period = 1.0 / self._rate
-        self._std = float(params.noise_std)
-        self._p_drop = float(params.dropout_probability)
-        self._seed = int(params.seed)
+        # The current block of draws as Python lists (cheap scalar indexing at 100 Hz).
         self._block = -1
-        self._noise = np.zeros(BLOCK_SIZE)
-        self._dropped = np.zeros(BLOCK_SIZE, dtype=bool)
+        self._noise: list[float] = []
+        self._dropped: list[bool] = []
 
         self._motion_port = self.DeclareVectorInputPort("motion_power", 1)
         self._computation_port = self.DeclareVectorInputPort("computation_power", 1)
@@ -117,15 +127,10 @@ class PowerSensor(LeafSystem):
 
     # -- hot path ------------------------------------------------------------------------------
 
-    def _Sum(self, context) -> float:
-        return float(self._motion_port.Eval(context)[0]) + float(
-            self._computation_port.Eval(context)[0]
-        )
-
     def _LoadBlock(self, block: int) -> None:
         noise, dropped = NoiseSamples(self._params, block * BLOCK_SIZE, BLOCK_SIZE)
-        self._noise = noise
-        self._dropped = dropped
+        self._noise = noise.tolist()
+        self._dropped = dropped.tolist()
         self._block = block
 
     def _Sample(self, context, discrete_state) -> None:
@@ -133,14 +138,15 @@ class PowerSensor(LeafSystem):
         block, local = divmod(k, BLOCK_SIZE)
         if block != self._block:
             self._LoadBlock(block)
-        if self._dropped[local]:
-            value = math.nan
-        else:
-            value = self._Sum(context) + self._noise[local]
+        # true_power is a cached output: the battery reads the same value at this update.
+        y = self._true_port.Eval(context)[0]
+        value = PowerSample(y, self._noise[local], self._dropped[local])
         discrete_state.get_mutable_vector().SetAtIndex(0, value)
 
     def _CalcMeasured(self, context, output) -> None:
         output.SetAtIndex(0, context.get_discrete_state_vector().GetAtIndex(0))
 
     def _CalcTrue(self, context, output) -> None:
-        output.SetAtIndex(0, self._Sum(context))
+        output.SetAtIndex(
+            0, self._motion_port.Eval(context)[0] + self._computation_port.Eval(context)[0]
+        )

@@ -35,7 +35,7 @@ only (no direct feedthrough). Ports: see :class:`StageSequencer`.
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
 from .coverage import (
     ANCHOR_SIZE,
@@ -404,3 +404,5 @@ class StageSequencer(LeafSystem):
             length = x[L.length]
             x[L.stage_left] = self._StageLeft(x, (px, py)) / length if length > 0.0 else 0.0
         discrete_state.get_mutable_vector(self._state_index).SetFromVector(x)
+        if x[L.complete] > 0.5:
+            return EventStatus.ReachedTermination(self, "complete")

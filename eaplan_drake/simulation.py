@@ -1,9 +1,9 @@
 """Runs a scenario's closed loop with Drake's ``Simulator`` and returns a flight log.
 
-The flight ends (a ``Simulator`` monitor returning ``EventStatus.ReachedTermination``) when the
-survey is complete, the battery reaches its reserve SoC, the battery browns out, or at the
-scenario's time limit. :class:`FlightLog` holds the logged time series and a summary with the
-paper's quality metric (paper 003 Sec. V)
+The flight ends when the survey is complete, the battery reaches its reserve SoC, the battery
+browns out (each decided by the system concerned at its own update, which returns
+``EventStatus.ReachedTermination``), or at the scenario's time limit. :class:`FlightLog` holds
+the logged time series and a summary with the paper's quality metric (paper 003 Sec. V)
 
     P = mean_t(½ c̃1 + ½ c̃2) / (b(t_f) − b_reserve),
 
@@ -36,9 +36,9 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
-from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
-from pydrake.systems.framework import EventStatus
+from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator, SimulatorStatus
 
+from eaplan_drake.battery import STATUS_BROWNOUT, STATUS_RESERVE
 from eaplan_drake.diagram import LOGGED_SIGNALS, MakeEaplanDiagram
 from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
 from eaplan_drake.planner import PlannerPolicy
@@ -65,8 +65,6 @@ REFERENCE_SCENARIOS = ("plan_I", "plan_II", "plan_i", "plan_ii")
 """The four reference flights of paper 003 Sec. V, shipped as YAML scenarios."""
 
 STATUS_COMPLETE = "complete"
-STATUS_RESERVE = "reserve_reached"
-STATUS_BROWNOUT = "brownout"
 STATUS_TIME_LIMIT = "time_limit"
 STATUS_NUMERICAL = "numerical_failure"
 
@@ -332,6 +330,10 @@ def Simulate(
     scenario or argument raises :class:`ScenarioError` (one line naming the key or argument)
     before anything is flown. A state or command that becomes NaN or infinite ends the flight
     with status ``numerical_failure``.
+
+    The flight ends at the update that decides it (the sequencer's for "complete", the battery's
+    for "brownout" and "reserve_reached", all updates at that time applied), so ``duration`` is
+    that update's time and ``final_soc`` the battery's SoC after it.
     """
     _CheckSimulateArguments(scenario, progress, progress_interval, policy)
     if policy is None and scenario.Validate().planner.policy == "hindsight":
@@ -343,40 +345,15 @@ def Simulate(
         simulator, scenario.simulation.integrator, scenario.simulation.max_step
     )
     context = simulator.get_mutable_context()
-    complete_port = diagram.GetOutputPort("mission_complete")
     soc_port = diagram.GetOutputPort("soc")
-    brownout_port = diagram.GetOutputPort("brownout")
-    remaining_port = diagram.GetOutputPort("coverage_remaining")
     reserve = scenario.battery.reserve_soc
-    state = {"status": STATUS_TIME_LIMIT, "next_progress": progress_interval, "next_check": 0.0}
-
-    def monitor(root_context):
-        if root_context.get_time() >= state["next_check"]:
-            state["next_check"] += NUMERICS_CHECK_PERIOD
-            if not _StatesFinite(diagram, root_context):
-                state["status"] = STATUS_NUMERICAL
-                return EventStatus.ReachedTermination(diagram, state["status"])
-        if complete_port.Eval(root_context)[0] > 0.5:
-            state["status"] = STATUS_COMPLETE
-        elif brownout_port.Eval(root_context)[0] > 0.5:
-            state["status"] = STATUS_BROWNOUT
-        elif soc_port.Eval(root_context)[0] <= reserve:
-            state["status"] = STATUS_RESERVE
-        else:
-            t = root_context.get_time()
-            if progress is not None and t >= state["next_progress"]:
-                state["next_progress"] += progress_interval
-                covered = 1.0 - float(remaining_port.Eval(root_context)[0])
-                progress(t, float(soc_port.Eval(root_context)[0]), covered)
-            return EventStatus.Succeeded()
-        return EventStatus.ReachedTermination(diagram, state["status"])
-
-    simulator.set_monitor(monitor)
     try:
         simulator.Initialize()
-        simulator.AdvanceTo(scenario.simulation.time_limit)
+        status = _AdvanceInChunks(
+            simulator, diagram, scenario.simulation.time_limit, progress, progress_interval
+        )
     except NonFiniteCommandError:
-        state["status"] = STATUS_NUMERICAL
+        status = STATUS_NUMERICAL
     wall_time = time.perf_counter() - wall_start
 
     log = _CollectLog(diagram, context)
@@ -386,7 +363,7 @@ def Simulate(
     stats = planner.statistics() if hasattr(planner, "statistics") else {}
     table_lo = np.asarray(planner.table.lower, dtype=float)
     table_hi = np.asarray(planner.table.upper, dtype=float)
-    completed = state["status"] == STATUS_COMPLETE
+    completed = status == STATUS_COMPLETE
     metric, mean_c1, mean_c2 = QualityMetric(
         log.times,
         log["path_parameters"],
@@ -403,8 +380,8 @@ def Simulate(
     log.summary = {
         "scenario": scenario.name,
         "policy": stats.get("policy", scenario.planner.policy),
-        "status": state["status"],
-        "end_reason": EndReason(state["status"], final_time, scenario, remaining),
+        "status": status,
+        "end_reason": EndReason(status, final_time, scenario, remaining),
         "coverage_remaining": remaining,
         "completed": completed,
         "duration": final_time,
@@ -424,7 +401,62 @@ def Simulate(
 
 
 NUMERICS_CHECK_PERIOD = 1.0
-"""How often the monitor checks that every state of the diagram is finite [s of flight]."""
+"""How often :func:`Simulate` checks that every state of the diagram is finite [s of flight]."""
+
+
+def _AdvanceInChunks(simulator, diagram, time_limit, progress, progress_interval) -> str:
+    """Advances an initialised flight until a system ends it or ``time_limit``; returns the
+    status.
+
+    The systems end the flight themselves: their periodic updates return
+    ``EventStatus.ReachedTermination`` with the status as message (the sequencer "complete",
+    the battery "brownout" or "reserve_reached"); ``AdvanceTo`` then stops at that update and its
+    ``SimulatorStatus`` carries the message. If the survey completed at the same update as a
+    battery event, "complete" wins. Another system's termination gives the status
+    "ended by <system name>: <message>". Between such events the flight advances in chunks that end
+    every :data:`NUMERICS_CHECK_PERIOD` (the states are checked to be finite) and at the
+    progress times. Every chunk boundary is an update time k·h of the battery (h its time step,
+    computed as Drake computes periodic event times), where a step ends anyway, so the chunks do
+    not change the flight.
+    """
+    context = simulator.get_mutable_context()
+    h = diagram.GetSubsystemByName("battery").time_step
+    complete_port = diagram.GetOutputPort("mission_complete")
+    soc_port = diagram.GetOutputPort("soc")
+    remaining_port = diagram.GetOutputPort("coverage_remaining")
+    next_check = 0.0
+    next_progress = progress_interval if progress is not None else math.inf
+    while True:
+        t = context.get_time()
+        if t >= next_check:
+            if not _StatesFinite(diagram, context):
+                return STATUS_NUMERICAL
+            next_check += NUMERICS_CHECK_PERIOD
+        if t >= next_progress:
+            next_progress += progress_interval
+            covered = 1.0 - float(remaining_port.Eval(context)[0])
+            progress(t, float(soc_port.Eval(context)[0]), covered)
+        if t >= time_limit:
+            return STATUS_TIME_LIMIT
+        boundary = min(_EventTime(min(next_check, next_progress), h), time_limit)
+        status = simulator.AdvanceTo(boundary)
+        if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+            if complete_port.Eval(context)[0] > 0.5:
+                return STATUS_COMPLETE
+            if status.message() in (STATUS_BROWNOUT, STATUS_RESERVE, STATUS_COMPLETE):
+                return status.message()
+            system = status.system()
+            name = system.get_name() if system is not None else "a system"
+            return f"ended by {name}: {status.message()}"
+
+
+def _EventTime(t: float, period: float) -> float:
+    """The first time k·period ≥ t (k an integer), computed as Drake computes the times of a
+    periodic event with zero offset (``offset + k · period``)."""
+    k = round(t / period)
+    if k * period < t:
+        k += 1
+    return k * period
 
 
 def _StatesFinite(diagram, root_context) -> bool:
@@ -489,7 +521,9 @@ def EndReason(status: str, time: float, scenario: Scenario, coverage_remaining: 
         return f"battery browned out (load above V²/(4 R_r)) at {time:.1f} s, {left}"
     if status == STATUS_NUMERICAL:
         return f"a state became non-finite at {time:.1f} s (numerical failure), {left}"
-    return f"time limit {scenario.simulation.time_limit:g} s reached, {left}"
+    if status == STATUS_TIME_LIMIT:
+        return f"time limit {scenario.simulation.time_limit:g} s reached, {left}"
+    return f"{status} at {time:.1f} s, {left}"
 
 
 def _CollectLog(diagram, context) -> FlightLog:

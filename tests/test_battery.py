@@ -4,12 +4,15 @@ import math
 
 import numpy as np
 import pytest
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import Simulator, SimulatorStatus
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from eaplan_drake.battery import (
+    STATUS_BROWNOUT,
+    STATUS_RESERVE,
     Battery,
+    BatteryState,
     IsBrownout,
     MaxDeliverablePower,
     PowerBudget,
@@ -24,8 +27,12 @@ from eaplan_drake.powerlog import REFERENCE_ENV, ReferenceDirectory
 V, R, Q, KB = 14.8, 0.0012, 3.2, 0.00183
 
 
-def Reference() -> BatteryParams:
-    return BatteryParams(voltage=V, internal_resistance=R, capacity=Q, k_b=KB)
+def Reference(reserve_soc: float = 0.0) -> BatteryParams:
+    """The reference battery; reserve 0 by default so that a test can discharge it to empty
+    (the Battery ends a simulation when b reaches the reserve)."""
+    return BatteryParams(
+        voltage=V, internal_resistance=R, capacity=Q, k_b=KB, reserve_soc=reserve_soc
+    )
 
 
 # -- pure functions -----------------------------------------------------------------------------
@@ -43,6 +50,27 @@ def test_current_solves_the_rint_quadratic():
     # Small loads: I ≈ y / V (the resistance hardly matters), exact to first order.
     assert RintCurrent(1e-9, V, R) == pytest.approx(1e-9 / V, rel=1e-12)
     assert isinstance(RintCurrent(33.0, V, R), float)
+
+
+def test_scalar_and_array_evaluations_agree_bit_for_bit():
+    # One expression, evaluated with math for a scalar and numpy for an array.
+    p = Reference()
+    y = np.array([-5.0, 0.0, 1e-9, 12.5, 33.0, 0.5 * MaxDeliverablePower(V, R), 1e12])
+    b0 = np.array([0.9, 0.5, 1.0, 0.3, 0.05, 0.7, 0.2])
+    current = RintCurrent(y, V, R)
+    soc = SocAfter(b0, y, 0.01, p)
+    brown = IsBrownout(y, V, R)
+    for k in range(y.size):
+        assert RintCurrent(float(y[k]), V, R) == current[k]
+        assert RintCurrent(np.float64(y[k]), V, R) == current[k]
+        assert SocAfter(float(b0[k]), float(y[k]), 0.01, p) == soc[k]
+        assert IsBrownout(float(y[k]), V, R) == brown[k]
+    assert isinstance(SocAfter(0.9, 33.0, 1.0, p), float)
+    assert isinstance(IsBrownout(33.0, V, R), bool)
+    assert RintCurrent([33.0, 1.0], V, R).shape == (2,)
+    assert math.isnan(RintCurrent(math.nan, V, R))
+    assert np.isnan(RintCurrent(np.array([math.nan]), V, R)[0])
+    assert math.isnan(SocAfter(0.5, math.nan, 1.0, p))
 
 
 def test_negative_power_gives_negative_current():
@@ -128,7 +156,7 @@ def Soc(battery, context) -> float:
 
 
 def test_ports_and_sizes():
-    battery = Battery(Reference())
+    battery = Battery(Reference(), time_step=H)
     assert battery.num_input_ports() == 1 and battery.num_output_ports() == 4
     assert battery.GetInputPort("power").size() == 1
     for name in ("soc", "current", "power_budget", "brownout"):
@@ -170,17 +198,35 @@ def test_constant_power_matches_closed_form_in_simulator():
         )
 
 
-def test_33_watts_empty_the_battery_at_784_s_in_simulator_and_soc_stays_at_zero():
-    params = Reference()
+def test_33_watts_empty_the_battery_at_784_s_and_the_simulation_ends_there():
+    params = Reference()  # reserve 0: the flight ends when the battery is empty
     battery, simulator, context = MakeDiagram(params, 33.0)
     t_empty = TimeToSoc(1.0, 0.0, 33.0, params)  # 784.094 s
-    simulator.AdvanceTo(t_empty - 2 * H)
+    status = simulator.AdvanceTo(t_empty - 2 * H)
+    assert status.succeeded()
     assert 0.0 < Soc(battery, context) < 3 * H * -SocDerivative(33.0, params)
-    simulator.AdvanceTo(t_empty + 2 * H)
-    assert Soc(battery, context) == 0.0
-    simulator.AdvanceTo(900.0)
+    status = simulator.AdvanceTo(900.0)
+    assert status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition
+    assert status.message() == STATUS_RESERVE == "reserve_reached"
+    assert status.system().get_name() == battery.get_name()
+    # Ends at the first update at or after t_empty, the state of that update applied.
+    assert t_empty <= context.get_time() <= t_empty + H + 1e-9
     assert Soc(battery, context) == 0.0
     assert battery.GetOutputPort("power_budget").Eval(context)[0] == 0.0
+
+
+def test_reaching_the_reserve_ends_the_simulation_at_that_update():
+    params = Reference(reserve_soc=0.3)
+    battery, simulator, context = MakeDiagram(params, 33.0)
+    t_reserve = TimeToSoc(1.0, 0.3, 33.0, params)  # 548.9 s
+    status = simulator.AdvanceTo(1000.0)
+    assert status.message() == STATUS_RESERVE
+    t = context.get_time()
+    assert t_reserve <= t <= t_reserve + H + 1e-9
+    assert round(t / H) * H == t  # an update time k·h
+    soc = Soc(battery, context)
+    assert 0.3 + SocDerivative(33.0, params) * H < soc <= 0.3
+    assert soc == pytest.approx(SocAfter(1.0, 33.0, t, params), abs=1e-10)
 
 
 def test_plan_i_fault_schedule_lands_at_93_and_270_s_exactly_once():
@@ -230,19 +276,42 @@ def test_fault_at_time_zero_is_applied_by_the_first_update():
     assert Soc(battery, context) == pytest.approx(0.9, abs=1e-15)
 
 
-def test_overload_sets_brownout_without_nan():
+def test_overload_is_a_brownout_that_ends_the_simulation_without_nan():
     params = Reference()
     overload = 2.0 * MaxDeliverablePower(V, R)
     battery, simulator, context = MakeDiagram(params, overload)
-    simulator.AdvanceTo(0.5)
+    status = simulator.AdvanceTo(0.5)
+    # The first update (t = 0) samples the load and ends the simulation: a brown-out.
+    assert status.message() == STATUS_BROWNOUT == "brownout"
+    assert context.get_time() == 0.0
     assert battery.GetOutputPort("brownout").Eval(context)[0] == 1.0
     assert battery.GetOutputPort("current").Eval(context)[0] == pytest.approx(V / (2 * R))
-    soc = Soc(battery, context)
-    # Discharges at the maximum-power current V / (2 R_r) for 0.49 s (updates at 0.01 … 0.49 s).
-    expected = max(1.0 - KB * V / (2 * R) / Q * 0.49, 0.0)
-    assert math.isfinite(soc) and soc == pytest.approx(expected, abs=1e-12)
+    assert Soc(battery, context) == 1.0  # nothing drawn before t = 0
     for name in ("soc", "current", "power_budget", "brownout"):
         assert np.all(np.isfinite(battery.GetOutputPort(name).Eval(context)))
+    # Held over a step, an overload discharges at the maximum-power current V / (2 R_r).
+    expected = 1.0 - KB * V / (2 * R) / Q * 0.1
+    assert SocAfter(1.0, overload, 0.1, params) == pytest.approx(expected, abs=1e-12)
+
+
+def test_system_keeps_a_copy_of_its_params():
+    params = Reference()
+    params.faults = [BatteryFault(time=1.0, soc_drop=0.5)]
+    battery, simulator, context = MakeDiagram(params, 10.0)
+    params.faults.clear()
+    params.initial_soc = 0.5
+    params.capacity = 1.0
+    assert battery.params.capacity == Q and len(battery.params.faults) == 1
+    simulator.AdvanceTo(1.0 + H / 2)
+    assert Soc(battery, context) == pytest.approx(SocAfter(1.0, 10.0, 1.0, Reference()) - 0.5)
+
+
+def test_state_is_the_named_battery_state():
+    battery, simulator, context = MakeDiagram(Reference(), 20.0)
+    simulator.AdvanceTo(0.025)  # updates at 0, 0.01, 0.02
+    x = BatteryState(context.get_discrete_state_vector().value())
+    assert x.soc == Soc(battery, context)
+    assert x.held_power == 20.0 and x.next_fault == 0.0
 
 
 def test_non_finite_power_is_an_error_not_a_nan():
@@ -269,7 +338,7 @@ def test_bad_params_name_the_field(field, value, message):
     params = Reference()
     setattr(params, field, value)
     with pytest.raises(ValueError, match=message):
-        Battery(params)
+        Battery(params, time_step=H)
 
 
 @pytest.mark.parametrize("time_step", [0.0, -0.01, math.inf, "0.01"])

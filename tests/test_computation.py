@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
+from pydrake.systems.primitives import (
+    Adder,
+    ConstantVectorSource,
+    LogVectorOutput,
+    Sine,
+    ZeroOrderHold,
+)
 
 from eaplan_drake.computation import (
     PACKAGED_TABLES,
@@ -211,3 +217,42 @@ def test_computation_load_in_simulated_diagram():
     assert np.all(np.isfinite(data))
     watts = dict(_rows("pednet_jetson_nano"))
     np.testing.assert_allclose(data, 0.5 * (watts[6.0] + watts[8.0]), atol=1e-12)
+
+
+class _CountingTable(ComputationTable):
+    """The PedNet table, counting its evaluations of g."""
+
+    calls = 0
+
+    def power(self, c) -> float:
+        type(self).calls += 1
+        return super().power(c)
+
+
+def test_computation_load_is_evaluated_once_per_change_of_its_parameters():
+    # c2 held for 1 s (a ZeroOrderHold, as the planner's state output holds it for h_T) and the
+    # power read at 100 Hz: g is evaluated when c2 changes, not at every read.
+    base = LoadComputationTable("pednet_jetson_nano")
+    table = _CountingTable(base.parameter_grids, base.values, source="counting")
+    builder = DiagramBuilder()
+    ramp = builder.AddSystem(Sine(3.0, 1.0, 0.0, 1))
+    offset = builder.AddSystem(ConstantVectorSource([6.0]))
+    adder = builder.AddSystem(Adder(2, 1))
+    hold = builder.AddSystem(ZeroOrderHold(1.0, 1))
+    load = builder.AddSystem(ComputationLoad(table))
+    builder.Connect(ramp.get_output_port(0), adder.get_input_port(0))
+    builder.Connect(offset.get_output_port(), adder.get_input_port(1))
+    builder.Connect(adder.get_output_port(), hold.get_input_port())
+    builder.Connect(hold.get_output_port(), load.GetInputPort("computation_parameters"))
+    logger = LogVectorOutput(load.GetOutputPort("power"), builder, 0.01)
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(10.0)
+    data = logger.FindLog(simulator.get_context()).data()
+    assert data.shape[1] >= 1000
+    # One evaluation per hold update (t = 0, 1, …, 10 s), none per 100 Hz read.
+    assert _CountingTable.calls <= 11
+    # Between the updates (a log sample at t = k s precedes the hold's update at k) the power is
+    # g of the value held since ⌊t⌋.
+    k = np.flatnonzero(np.arange(data.shape[1]) % 100 != 0)
+    held = 6.0 + 3.0 * np.sin(np.floor(k * 0.01))
+    np.testing.assert_allclose(data[0, k], [base.power([c]) for c in held], atol=1e-12)

@@ -9,7 +9,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, Sine
 
 from eaplan_drake.params import SensorParams
-from eaplan_drake.sensor import BLOCK_SIZE, NoiseSamples, PowerSensor
+from eaplan_drake.sensor import BLOCK_SIZE, NoiseSamples, PowerSample, PowerSensor
 
 AMPLITUDE, OMEGA, PHASE, OFFSET = 4.0, 0.7, 0.3, 6.0  # computation power 6 W + 4 sin(0.7 t + 0.3)
 MOTION = 25.0
@@ -109,6 +109,34 @@ def test_draws_are_a_function_of_the_sample_index_only():
     np.testing.assert_array_equal(part_dropped, dropped[first : first + 100])
     other, _ = NoiseSamples(SensorParams(seed=12), 0, 100)
     assert not np.allclose(other, noise[:100])
+
+
+def test_measurement_equation():
+    assert PowerSample(30.0, 0.25, False) == 30.25
+    assert PowerSample(30.0, -1.5, False) == 28.5
+    assert math.isnan(PowerSample(30.0, 0.25, True))
+
+
+def test_system_samples_equal_the_measurement_equation_exactly():
+    params = SensorParams(noise_std=0.5, dropout_probability=0.1, seed=3)
+    count = 300
+    noise, dropped = NoiseSamples(params, 0, count)
+    t_k = np.arange(count) * 0.01
+    samples = zip(TruePower(t_k), noise, dropped, strict=True)
+    expected = [PowerSample(float(y), float(n), bool(d)) for y, n, d in samples]
+    sensor, simulator = MakeDiagram(params)
+    np.testing.assert_allclose(Samples(sensor, simulator, count), expected, rtol=0, atol=1e-13)
+
+
+def test_system_keeps_a_copy_of_its_params():
+    params = SensorParams(noise_std=0.0, seed=2)
+    sensor, simulator = MakeDiagram(params)
+    params.noise_std = 10.0
+    params.rate = 1.0
+    assert sensor.params.noise_std == 0.0 and sensor.period == pytest.approx(0.01)
+    np.testing.assert_allclose(
+        Samples(sensor, simulator, 20), TruePower(np.arange(20) * 0.01), rtol=0, atol=1e-12
+    )
 
 
 def test_system_samples_are_sum_plus_the_seeded_draws_and_reproducible():

@@ -85,6 +85,7 @@ def _FlyStandIn(plan, c1_source, start=(-100.0, 220.0), t_max=900.0):
     sim.set_monitor(_Stop(seq, seq.GetOutputPort("mission_complete")))
     sim.AdvanceTo(t_max)
     ctx = sim.get_context()
+    diagram.ForcedPublish(ctx)  # log the state after the update that ended the flight
     return ctx.get_time(), {n: lg.FindLog(ctx) for n, lg in logs.items()}
 
 
