@@ -448,7 +448,7 @@ class MissionProblem:
         u, t = self.u1[self._hull], self.t_rem[self._hull]
         if u.size == 1:
             return float(t[0]), 0.0
-        i = int(np.clip(np.searchsorted(u, u1, side="right") - 1, 0, u.size - 2))
+        i = min(max(int(np.searchsorted(u, u1, side="right")) - 1, 0), u.size - 2)
         h = u[i + 1] - u[i]
         s = (u1 - u[i]) / h
         d0, d1 = self._slopes[i], self._slopes[i + 1]
@@ -489,7 +489,7 @@ class MissionProblem:
         """
         h = self.step
         soc, rate, dsoc, drate = self._SmoothNodes(power)
-        k = int(np.clip(math.floor(t / h), 0, soc.size - 2))
+        k = min(max(math.floor(t / h), 0), soc.size - 2)
         a = min(max(t / h - k, 0.0), 1.0) if t <= (soc.size - 1) * h else t / h - k
         h00, h10 = 2 * a**3 - 3 * a**2 + 1, a**3 - 2 * a**2 + a
         h01, h11 = -2 * a**3 + 3 * a**2, a**3 - a**2
