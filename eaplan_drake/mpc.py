@@ -97,6 +97,7 @@ from eaplan_drake.energy_model import FreeResponseMatrix, StateSize
 from eaplan_drake.nlp import MakeSolver
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.prediction import (
+    GridCandidates,
     PowerSurrogate,
     SimpsonSoc,
     SimpsonSocSensitivity,
@@ -110,7 +111,6 @@ __all__ = [
     "MissionProgram",
 ]
 
-_MAX_GRID_POINTS = 100_000
 _CONSTRAINT_SCALE = 100.0
 """The NLP's constraints are in percent of SoC: IPOPT then sees gradients of order one."""
 
@@ -178,15 +178,9 @@ class MissionProblem:
         lo1, hi1 = (float(v) for v in planner.path_parameter_bounds)
         self.path_bounds = (lo1, hi1)
         self.u1 = np.clip((grid - lo1) / (hi1 - lo1), 0.0, 1.0) if hi1 > lo1 else np.ones_like(grid)
-        n_grid = math.prod(g.size for g in table.parameter_grids)
-        if n_grid > _MAX_GRID_POINTS:
-            raise ValueError(
-                f"table: {n_grid} grid combinations, at most {_MAX_GRID_POINTS} are supported"
-            )
         self.lower, self.upper = table.lower, table.upper
         self.span = np.where(self.upper > self.lower, self.upper - self.lower, 1.0)
-        self.candidates = np.array(list(itertools.product(*table.parameter_grids)), dtype=float)
-        self.candidate_power = np.array([table.power(c) for c in self.candidates])
+        self.candidates, self.candidate_power = GridCandidates(table)
         self.candidate_u2 = np.mean((self.candidates - self.lower) / self.span, axis=1)
         self.lowest_candidate = int(np.flatnonzero(np.all(self.candidates == self.lower, 1))[0])
         w1, w2 = float(planner.path_weight), float(planner.computation_weight)

@@ -66,7 +66,6 @@ then moves towards c1* by at most δ1 per update (rate limit against chattering)
 
 import copy
 import dataclasses as dc
-import itertools
 import math
 import time
 
@@ -82,6 +81,7 @@ from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.prediction import (
     ChoosePathParameter,
     CoverageTimeModel,
+    GridCandidates,
     PowerSurrogate,
     SimpsonSocSensitivity,
     SimpsonSocSteps,
@@ -96,7 +96,6 @@ __all__ = [
     "PlannerSolution",
 ]
 
-_MAX_GRID_POINTS = 100_000
 _FEASIBILITY_TOL = 1e-9  # [W]
 
 
@@ -317,18 +316,13 @@ class Planner:
         self.lower, self.upper, self.span = table.lower, table.upper, table.upper - table.lower
         self._budget_per_soc = float(PowerBudget(1.0, battery))
         # Candidates of the integer mapping, best objective first (ties: larger parameters).
-        n_grid = math.prod(g.size for g in table.parameter_grids)
-        if n_grid > _MAX_GRID_POINTS:
-            raise ValueError(
-                f"table: {n_grid} grid combinations, at most {_MAX_GRID_POINTS} are supported"
-            )
-        grid = np.array(list(itertools.product(*table.parameter_grids)), dtype=float)
+        grid, power = GridCandidates(table)
         u = (grid - self.lower) / self.span
         score = np.sum((1.0 - u) ** 2, axis=1)
         order_idx = np.lexsort((-np.sum(u, axis=1), score))
         self.candidates = grid[order_idx]
         """Grid points of c2, best objective first (ties: larger parameters)."""
-        self.candidate_power = np.array([table.power(c) for c in self.candidates])
+        self.candidate_power = power[order_idx]
         self._lowest_candidate = int(np.flatnonzero(np.all(self.candidates == self.lower, 1))[0])
         # Rollout length: t_b is only needed up to the longest remaining coverage time.
         self._num_half = 2 * max(N, math.ceil(self.coverage_time.times[1] / h) + 1) + 1

@@ -15,6 +15,7 @@ Pure functions over numpy, one implementation each:
 - :func:`TimeToReserve`: t_b of Alg. 2 l. 17–23 from that rollout.
 - :class:`CoverageTimeModel` and :func:`ChoosePathParameter`: the Eq. 10 line t(c1) = ν c1 + τ
   (ν, τ from :func:`~eaplan_drake.coverage.ScalingFactors`) and the path rule of Alg. 2 l. 24–27.
+- :func:`GridCandidates`: the admissible grid points of c2 and their exact table power.
 - :class:`PowerSurrogate`: the smooth model ĝ of the computation table inside the NLPs (quadratic
   least-squares fit, or the Eq. 11 line of
   :meth:`~eaplan_drake.computation.ComputationTable.scaling_factors`).
@@ -36,6 +37,7 @@ __all__ = [
     "ChoosePathParameter",
     "CoverageTimeModel",
     "FreeResponse",
+    "GridCandidates",
     "PowerSurrogate",
     "SimpsonSoc",
     "SimpsonSocSensitivity",
@@ -44,6 +46,22 @@ __all__ = [
     "StepLoads",
     "TimeToReserve",
 ]
+
+
+MAX_GRID_POINTS = 100_000
+"""Largest number of grid combinations of the computation table the planners enumerate."""
+
+
+def GridCandidates(table: ComputationTable) -> tuple[np.ndarray, np.ndarray]:
+    """(every grid point of the table (K×σ, the product of its parameter grids in order), the
+    exact power g of each (K,) [W]); ValueError naming ``table`` beyond :data:`MAX_GRID_POINTS`."""
+    n_grid = math.prod(g.size for g in table.parameter_grids)
+    if n_grid > MAX_GRID_POINTS:
+        raise ValueError(
+            f"table: {n_grid} grid combinations, at most {MAX_GRID_POINTS} are supported"
+        )
+    points = np.array(list(itertools.product(*table.parameter_grids)), dtype=float)
+    return points, np.array([table.power(c) for c in points])
 
 
 def FreeResponse(q_hat, order, period: float, step: float, num_points: int) -> np.ndarray:
@@ -222,10 +240,9 @@ class PowerSurrogate:
         self.span = table.upper - table.lower
         self.lower = table.lower
         pairs = [(i, j) for i in range(sigma) for j in range(i, sigma)]
-        points = np.array(list(itertools.product(*table.parameter_grids)))
+        points, g = GridCandidates(table)
         if kind == "quadratic" and points.shape[0] >= 1 + sigma + len(pairs):
             u = (points - self.lower) / self.span
-            g = np.array([table.power(p) for p in points])
             X = np.column_stack([np.ones(len(u)), u] + [u[:, i] * u[:, j] for i, j in pairs])
             coef = np.linalg.lstsq(X, g, rcond=None)[0]
             self.const = float(coef[0])
