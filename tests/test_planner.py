@@ -304,6 +304,17 @@ def test_two_parameter_table_maps_to_best_admissible_grid_point(table2):
         np.testing.assert_array_equal(sol.computation_parameters, best)
 
 
+def _AssertStepFeasible(table, battery, soc, c):
+    """c2 = c keeps y ≤ b·Q_c·V at the start and end of the first step, from c_prev = 10, and
+    lies between the largest admissible grid value and the top."""
+    assert _BruteForceC2(table, Q_REF, soc, [10.0]) <= c < table.upper[0]
+    f = _Fourier(Q_REF, np.array([0.0, 0.5, 1.0]), PERIOD)
+    y = f + table.power([c]) - table.power([10.0])
+    b1 = SimpsonSoc(y, soc, battery, 1.0)[1]
+    assert y[0] <= PowerBudget(soc, battery) + 1e-9 and y[2] <= PowerBudget(b1, battery) + 1e-9
+    return f
+
+
 def test_non_integer_parameters_are_feasible_and_above_the_grid_choice(table):
     battery = BatteryParams()
     continuous = Planner(PlannerParams(), table, ORDER, battery, COVERAGE_TIMES, integer=False)
@@ -311,11 +322,7 @@ def test_non_integer_parameters_are_feasible_and_above_the_grid_choice(table):
     sol = continuous.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], 0.0)
     assert sol.success and sol.feasible
     c = sol.computation_parameters[0]
-    assert _BruteForceC2(table, Q_REF, soc, [10.0]) <= c < table.upper[0]
-    f = _Fourier(Q_REF, np.array([0.0, 0.5, 1.0]), PERIOD)
-    y = f + table.power([c]) - table.power([10.0])
-    b1 = SimpsonSoc(y, soc, battery, 1.0)[1]
-    assert y[0] <= PowerBudget(soc, battery) + 1e-9 and y[2] <= PowerBudget(b1, battery) + 1e-9
+    f = _AssertStepFeasible(table, battery, soc, c)
     # ... and nearly active: a bit more would violate it (at the start or the end of the step).
     y = f + table.power([c + 0.05]) - table.power([10.0])
     b1 = SimpsonSoc(y, soc, battery, 1.0)[1]
@@ -355,12 +362,7 @@ def test_forced_failure_keeps_c1_and_takes_the_largest_admissible_c2(table):
     assert not sol.success
     assert "solver failed" in sol.status
     assert sol.path_parameter == -300.0  # kept
-    c = sol.computation_parameters[0]
-    assert _BruteForceC2(table, Q_REF, soc, [10.0]) <= c < table.upper[0]
-    f = _Fourier(Q_REF, np.array([0.0, 0.5, 1.0]), PERIOD)
-    y = f + table.power([c]) - table.power([10.0])
-    b1 = SimpsonSoc(y, soc, battery, 1.0)[1]
-    assert y[0] <= PowerBudget(soc, battery) + 1e-9 and y[2] <= PowerBudget(b1, battery) + 1e-9
+    _AssertStepFeasible(table, battery, soc, sol.computation_parameters[0])
     bad = failing.Plan(Q_REF, math.nan, PERIOD, 0.5, [10.0], 0.0)
     assert not bad.success and "invalid input" in bad.status
 
@@ -413,9 +415,9 @@ def test_time_to_reserve_matches_closed_form_for_constant_load(planner):
 GRID = np.linspace(-1000.0, 0.0, 21)
 
 
-def _Scheduler(params, table, c2_0, policy=None, integer=True):
-    """A PlannerScheduler around ``params.policy`` (the paper's by default in these tests)."""
-    policy = policy or MakePolicy(
+def _Policy(params, table, integer=True):
+    """The policy ``params.policy`` names for these tests' battery, coverage times and grid."""
+    return MakePolicy(
         params,
         table,
         ORDER,
@@ -424,6 +426,11 @@ def _Scheduler(params, table, c2_0, policy=None, integer=True):
         path_parameter_grid=GRID,
         integer=integer,
     )
+
+
+def _Scheduler(params, table, c2_0, policy=None, integer=True):
+    """A PlannerScheduler around ``params.policy`` (the paper's by default in these tests)."""
+    policy = policy or _Policy(params, table, integer)
     return PlannerScheduler(
         params,
         policy=policy,
@@ -507,14 +514,7 @@ def test_system_ports(table, table2):
 
 def test_system_copies_its_params_and_uses_the_given_policy(table):
     params = PlannerParams(policy="paper", warmup=2.0, period=1.0)
-    policy = MakePolicy(
-        params,
-        table,
-        ORDER,
-        BatteryParams(),
-        coverage_time_bounds=COVERAGE_TIMES,
-        path_parameter_grid=GRID,
-    )
+    policy = _Policy(params, table)
     system = _Scheduler(params, table, [10.0], policy=policy)
     assert system.policy is policy  # the scheduler never builds its own
     params.period, params.warmup, params.path_parameter_grid_size = 5.0, 0.0, 3
