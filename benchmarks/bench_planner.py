@@ -5,13 +5,16 @@ power (T = 46 s, mean ≈ 21 W, three harmonics), the PedNet computation table, 
 battery with the plan i faults (−6 % at 93 s, −9 % at 270 s), a noisy energy estimate q̂, and the
 coverage fraction advancing at 1/t(c1) per second. Starts after the warm-up (t = 92 s) from the
 plan i (c1 = 0, c2 = 10) and plan ii (c1 = −1000, c2 = 2) configurations. Prints the median and
-95th percentile of the IPOPT solve time and of the whole step, and the failure count (paper
-policy). Then, for the mpc policy: on ``--states`` random feasible planner states as in flight
-(:func:`eaplan_drake.worlds.RandomPlannerObservation`: the reference plan at a random stage, wind
-0–12 m/s from any direction, random energy state and SoC), how often the NLP's first move equals
-brute-force enumeration of the same discrete problem, and its step times. Not a test.
+95th percentile of the NLP solve time and of the whole step, and the failure count (paper
+policy; with the table's integer parameters it solves no NLP, ``--continuous`` makes c2
+continuous so that it does). Then, for the mpc policy: on ``--states`` random feasible planner
+states as in flight (:func:`eaplan_drake.worlds.RandomPlannerObservation`: the reference plan at
+a random stage, wind 0–12 m/s from any direction, random energy state and SoC), how often the
+NLP's first move equals brute-force enumeration of the same discrete problem, and its step
+times. Not a test.
 
-    python3 benchmarks/bench_planner.py [--steps 300] [--cold] [--states 300]
+    python3 benchmarks/bench_planner.py [--steps 300] [--cold] [--states 300] [--solver snopt]
+        [--continuous]
 """
 
 import argparse
@@ -76,7 +79,7 @@ def Replay(planner: Planner, c1: float, c2: float, steps: int, seed: int, cold: 
     return solve_times, step_times, failures, infeasible, trace
 
 
-def MpcAgreement(states: int, seed: int = 8):
+def MpcAgreement(states: int, solver: str, seed: int = 8):
     """(agreeing, total, failures, step times [s]) of the mpc policy against brute force."""
     from eaplan_drake.coverage import MakeCoveragePlan
     from eaplan_drake.params import Scenario
@@ -84,6 +87,7 @@ def MpcAgreement(states: int, seed: int = 8):
     from eaplan_drake.worlds import RandomPlannerObservation
 
     scenario = Scenario()
+    scenario.planner.solver = solver
     table = LoadComputationTable(scenario.computation.table)
     grid = scenario.planner.PathParameterGrid()
     plan = MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=0.0)
@@ -123,6 +127,10 @@ def main():
     parser.add_argument("--steps", type=int, default=300, help="planner steps per start")
     parser.add_argument("--cold", action="store_true", help="no warm start")
     parser.add_argument("--states", type=int, default=300, help="random states for the mpc")
+    parser.add_argument("--solver", default="ipopt", help="planner.solver: ipopt or snopt")
+    parser.add_argument(
+        "--continuous", action="store_true", help="paper policy with continuous c2 (solves the NLP)"
+    )
     args = parser.parse_args()
 
     table = LoadComputationTable("pednet_jetson_nano")
@@ -131,7 +139,14 @@ def main():
     )
     solve, step, fail, infeasible, n = [], [], 0, 0, 0
     for name, c1, c2, seed in (("plan i ", 0.0, 10.0, 1), ("plan ii", -1000.0, 2.0, 2)):
-        planner = Planner(PlannerParams(), table, ORDER, battery, COVERAGE_TIMES)
+        planner = Planner(
+            PlannerParams(solver=args.solver),
+            table,
+            ORDER,
+            battery,
+            COVERAGE_TIMES,
+            integer=not args.continuous,
+        )
         planner.Plan(np.r_[30.0, np.zeros(6)], 1.0, PERIOD, 1.0, [c2], c1)  # first-call setup
         s, w, f, i, trace = Replay(planner, c1, c2, args.steps, seed, args.cold)
         solve += s
@@ -140,16 +155,17 @@ def main():
         infeasible += i
         n += len(s)
         last = trace[-1]
-        c2s = sorted({float(row[4]) for row in trace})
+        c2s = sorted({round(float(row[4]), 2) for row in trace})
         print(
             f"{name}: {len(s)} steps, t = {trace[0][0]:.0f}…{last[0]:.0f} s, final SoC "
             f"{last[1]:.3f}, coverage left {last[2]:.2f}, c1 {last[3]:.0f}, c2 values {c2s}"
         )
     ms = 1e3 * np.array(solve)
     ws = 1e3 * np.array(step)
-    print(f"steps            {n}  ({'cold' if args.cold else 'warm'} start)")
+    kind = "continuous c2" if args.continuous else "integer c2: no NLP"
+    print(f"steps            {n}  ({'cold' if args.cold else 'warm'} start, {kind}, {args.solver})")
     print(
-        f"IPOPT solve      median {np.median(ms):.1f} ms, p95 {np.percentile(ms, 95):.1f} ms, "
+        f"NLP solve        median {np.median(ms):.1f} ms, p95 {np.percentile(ms, 95):.1f} ms, "
         f"max {ms.max():.1f} ms"
     )
     print(
@@ -158,11 +174,12 @@ def main():
     )
     print(f"failures         {fail}")
     print(f"infeasible steps {infeasible} (lowest c2 still above the budget: slack used)")
-    agree, total, failures, times = MpcAgreement(args.states)
+    agree, total, failures, times = MpcAgreement(args.states, args.solver)
     ts = 1e3 * np.array(times)
     print(
         f"mpc vs brute force: first move equal in {agree} of {total} random feasible states "
-        f"({100.0 * agree / total:.1f} %), {failures} solver fallbacks; step median "
+        f"({100.0 * agree / total:.1f} %), {failures} solver fallbacks ({args.solver}); "
+        f"step median "
         f"{np.median(ts):.1f} ms, p95 {np.percentile(ts, 95):.1f} ms"
     )
     if not math.isfinite(np.median(ws)):

@@ -231,14 +231,12 @@ def AddPlannerScheduler(
     planner = builder.AddNamedSystem(
         "planner",
         PlannerScheduler(
-            policy,
+            scenario.planner,
+            policy=policy,
             table=table,
             order=scenario.estimator.ModelOrder(scenario.energy_model.order),
-            period=scenario.planner.period,
-            warmup=scenario.planner.warmup,
             initial_path_parameter=c1_0,
             initial_computation_parameters=c2_0,
-            path_parameter_grid_size=grid.size,
         ),
     )
     sequencer, estimator = aircraft.sequencer, energy.estimator

@@ -22,7 +22,7 @@ and cut it at each turn. With q̂ the prediction of the power is
 
 (:func:`~eaplan_drake.energy_model.FreeResponseMatrix`, exact rotation blocks), and the Rint
 battery ḃ = −k_b I(y)/Q_c gives the SoC b(t; c2) by Simpson's rule on the grid of h_T
-(:func:`~eaplan_drake.planner.SimpsonSoc`, exact up to O(h⁵) per step), linearly interpolated in
+(:func:`~eaplan_drake.prediction.SimpsonSoc`, exact up to O(h⁵) per step), linearly interpolated in
 between. The plan (c1_j, c2) is *feasible* when
 
     b(t_rem(c1_j); c2) ≥ b_res + m(t_rem(c1_j))                                    (1)
@@ -68,7 +68,8 @@ normalised to [0, 1] by their bounds. Ties are broken by the larger end SoC.
 
 **The discrete problem and its NLP.** c1 ranges over the M grid values, c2 over the table's
 grid (integer parameters). Brute force (:meth:`MissionProblem.BruteForce`) enumerates it exactly.
-The NLP (:class:`MissionProgram`, ``MathematicalProgram`` + IPOPT, bounded by iterations only) is
+The NLP (:class:`MissionProgram`, ``MathematicalProgram`` + IPOPT or SNOPT (``planner.solver``),
+bounded by iterations only) is
 its continuous relaxation: variables c̃1 ∈ [0, 1] and c̃2 ∈ [0, 1]^σ, linear cost −J, and the
 constraints (1), (2) with t_rem(c̃1) replaced by the lower convex hull of the staircase (the
 tightest convex under-estimate: with it the relaxation's optimum sits at the ends of plateaus,
@@ -81,19 +82,28 @@ feasible c1) while the plan improves; the result is the decision. A failed solve
 c1 and takes the best c2 that the exact check admits at it.
 """
 
+import copy
 import dataclasses as dc
 import itertools
 import math
 
 import numpy as np
 from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
-from pydrake.solvers import IpoptSolver, MathematicalProgram, SolverOptions
+from pydrake.solvers import MathematicalProgram
 
-from eaplan_drake.battery import IsBrownout
+from eaplan_drake.battery import IsBrownout, SocDerivative
 from eaplan_drake.computation import ComputationTable
 from eaplan_drake.energy_model import FreeResponseMatrix, StateSize
+from eaplan_drake.nlp import MakeSolver
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.planner import PowerSurrogate, SimpsonSoc
+from eaplan_drake.prediction import (
+    GridCandidates,
+    PowerSurrogate,
+    SimpsonSoc,
+    SimpsonSocSensitivity,
+    SocDerivativeSlope,
+    StepLoads,
+)
 
 __all__ = [
     "MissionDecision",
@@ -101,7 +111,6 @@ __all__ = [
     "MissionProgram",
 ]
 
-_MAX_GRID_POINTS = 100_000
 _CONSTRAINT_SCALE = 100.0
 """The NLP's constraints are in percent of SoC: IPOPT then sees gradients of order one."""
 
@@ -138,6 +147,8 @@ class MissionProblem:
         battery: Rint battery parameters (reserve_soc is b_res).
         path_parameter_grid: the M values of c1 [m²] (ascending) of ``remaining_time``.
         integer: c2 takes only grid values (else the NLP's continuous optimum is a candidate).
+
+    The parameters are copied: later changes to the caller's objects do not reach the problem.
     """
 
     def __init__(
@@ -149,6 +160,8 @@ class MissionProblem:
         path_parameter_grid,
         integer: bool = True,
     ):
+        planner = copy.deepcopy(planner)
+        battery = copy.deepcopy(battery)
         self.params = planner
         self.table = table
         self.battery = battery
@@ -165,15 +178,9 @@ class MissionProblem:
         lo1, hi1 = (float(v) for v in planner.path_parameter_bounds)
         self.path_bounds = (lo1, hi1)
         self.u1 = np.clip((grid - lo1) / (hi1 - lo1), 0.0, 1.0) if hi1 > lo1 else np.ones_like(grid)
-        n_grid = math.prod(g.size for g in table.parameter_grids)
-        if n_grid > _MAX_GRID_POINTS:
-            raise ValueError(
-                f"table: {n_grid} grid combinations, at most {_MAX_GRID_POINTS} are supported"
-            )
         self.lower, self.upper = table.lower, table.upper
         self.span = np.where(self.upper > self.lower, self.upper - self.lower, 1.0)
-        self.candidates = np.array(list(itertools.product(*table.parameter_grids)), dtype=float)
-        self.candidate_power = np.array([table.power(c) for c in self.candidates])
+        self.candidates, self.candidate_power = GridCandidates(table)
         self.candidate_u2 = np.mean((self.candidates - self.lower) / self.span, axis=1)
         self.lowest_candidate = int(np.flatnonzero(np.all(self.candidates == self.lower, 1))[0])
         w1, w2 = float(planner.path_weight), float(planner.computation_weight)
@@ -182,9 +189,7 @@ class MissionProblem:
         self._rows_key = None
         self._rows = None
         self._cache: dict = {}
-        V, R = float(battery.voltage), float(battery.internal_resistance)
-        self._V2, self._4R = V * V, 4.0 * R
-        self._soc_per_amp_second = battery.k_b / battery.capacity
+        self._smooth_cache: dict = {}
         self._margin_floor = float(planner.margin_floor)
         self._fault_reserve = float(planner.fault_reserve)
         self._fault_time = float(planner.fault_reserve_time)
@@ -222,9 +227,8 @@ class MissionProblem:
         self._hull = _LowerHull(self.u1, self.t_rem)
         self._slopes = _PchipSlopes(self.u1[self._hull], self.t_rem[self._hull])
         self._cache = {}
-        y0 = float(q[0])
-        disc = math.sqrt(max(self._V2 - self._4R * max(y0, 0.0), 1e-12))
-        s_b = self._soc_per_amp_second / disc
+        self._smooth_cache = {}
+        s_b = -float(SocDerivativeSlope(max(float(q[0]), 0.0), self.battery))
         sigma = math.sqrt(max(float(mean_power_variance), 0.0))
         p = self.params
         self._margin_rate = float(p.margin_sigmas) * s_b * sigma  # [1/s]
@@ -438,7 +442,7 @@ class MissionProblem:
         u, t = self.u1[self._hull], self.t_rem[self._hull]
         if u.size == 1:
             return float(t[0]), 0.0
-        i = int(np.clip(np.searchsorted(u, u1, side="right") - 1, 0, u.size - 2))
+        i = min(max(int(np.searchsorted(u, u1, side="right")) - 1, 0), u.size - 2)
         h = u[i + 1] - u[i]
         s = (u1 - u[i]) / h
         d0, d1 = self._slopes[i], self._slopes[i + 1]
@@ -450,33 +454,45 @@ class MissionProblem:
         slope = dh00 * t[i] + dh10 * h * d0 + dh01 * t[i + 1] + dh11 * h * d1
         return float(value), float(slope)
 
+    def _SmoothNodes(self, power: float):
+        """(b, ḃ, ∂b/∂g, ∂ḃ/∂g) at the nodes k·h_T under the held computation power ``power``
+        [W]: :func:`~eaplan_drake.prediction.SimpsonSoc` and its sensitivity (cached per power
+        for the step; unlike :meth:`SocCurve`, no −inf after a brown-out: the NLP needs a smooth
+        model)."""
+        key = float(power)
+        nodes = self._smooth_cache.get(key)
+        if nodes is None:
+            y = self.f_half + (key - self.g_now)
+            dsoc = np.concatenate(
+                ([0.0], np.cumsum(SimpsonSocSensitivity(StepLoads(y), self.battery, self.step)))
+            )
+            nodes = (
+                SimpsonSoc(y, self.soc0, self.battery, self.step),
+                np.asarray(SocDerivative(y[0::2], self.battery)),
+                dsoc,
+                np.asarray(SocDerivativeSlope(y[0::2], self.battery)),
+            )
+            self._smooth_cache[key] = nodes
+        return nodes
+
     def SmoothSoc(self, power: float, t: float) -> tuple[float, float, float]:
-        """(b(t), ∂b/∂t, ∂b/∂g) at the held computation power ``power`` [W] (no caching).
+        """(b(t), ∂b/∂t, ∂b/∂g) at the held computation power ``power`` [W].
 
         Cubic Hermite interpolation of the Simpson node values with the node rates ḃ(t_k) (and
         likewise for ∂b/∂g), so that b is continuously differentiable in t for IPOPT.
         """
         h = self.step
-        y = self.f_half + (power - self.g_now)
-        disc = np.sqrt(np.maximum(self._V2 - self._4R * y, 1e-12))
-        rate = -self._soc_per_amp_second * 2.0 * y / (np.sqrt(self._V2) + disc)  # ḃ [1/s]
-        drate = -self._soc_per_amp_second / disc  # ∂ḃ/∂g [1/(W s)]
-        soc = self.soc0 + np.concatenate(
-            ([0.0], np.cumsum(h * (rate[0:-2:2] + 4.0 * rate[1:-1:2] + rate[2::2]) / 6.0))
-        )
-        dsoc = np.concatenate(
-            ([0.0], np.cumsum(h * (drate[0:-2:2] + 4.0 * drate[1:-1:2] + drate[2::2]) / 6.0))
-        )
-        k = int(np.clip(math.floor(t / h), 0, soc.size - 2))
+        soc, rate, dsoc, drate = self._SmoothNodes(power)
+        k = min(max(math.floor(t / h), 0), soc.size - 2)
         a = min(max(t / h - k, 0.0), 1.0) if t <= (soc.size - 1) * h else t / h - k
         h00, h10 = 2 * a**3 - 3 * a**2 + 1, a**3 - 2 * a**2 + a
         h01, h11 = -2 * a**3 + 3 * a**2, a**3 - a**2
         dh00, dh10 = 6 * a**2 - 6 * a, 3 * a**2 - 4 * a + 1
         dh01, dh11 = -6 * a**2 + 6 * a, 3 * a**2 - 2 * a
-        r0, r1 = rate[2 * k], rate[2 * k + 2]
+        r0, r1 = rate[k], rate[k + 1]
         value = h00 * soc[k] + h10 * h * r0 + h01 * soc[k + 1] + h11 * h * r1
         slope = (dh00 * soc[k] + dh01 * soc[k + 1]) / h + dh10 * r0 + dh11 * r1
-        dg = h00 * dsoc[k] + h10 * h * drate[2 * k] + h01 * dsoc[k + 1] + h11 * h * drate[2 * k + 2]
+        dg = h00 * dsoc[k] + h10 * h * drate[k] + h01 * dsoc[k + 1] + h11 * h * drate[k + 1]
         return float(value), float(slope), float(dg)
 
 
@@ -517,7 +533,7 @@ def _RowIndex(rows: np.ndarray, row) -> int:
 
 class MissionProgram:
     """The continuous relaxation of :class:`MissionProblem` as a ``MathematicalProgram`` solved
-    with IPOPT (see the module docstring), built once and re-used every step.
+    with IPOPT or SNOPT (see the module docstring), built once and re-used every step.
 
     Attributes:
         prog: the MathematicalProgram.
@@ -552,15 +568,7 @@ class MissionProgram:
         self.path_variable = u1
         self.computation_variables = u2
         self.variables = np.concatenate((u1, u2))
-        self.solver = IpoptSolver()
-        self.options = SolverOptions()
-        sid = self.solver.id()
-        self.options.SetOption(sid, "max_iter", int(p.max_iterations))
-        if p.max_wall_time > 0.0:  # opt-in real-time budget: results then depend on the CPU
-            self.options.SetOption(sid, "max_wall_time", float(p.max_wall_time))
-        self.options.SetOption(sid, "tol", 1e-8)
-        self.options.SetOption(sid, "print_level", 0)
-        self.options.SetOption(sid, "sb", "yes")
+        self.solver, self.options = MakeSolver(p, tolerance=1e-8)
 
     def _Constraints(self, x):
         """[(1), (2)] at x = [c̃1, c̃2] (≥ 0 when feasible), smooth model, analytic Jacobian."""
@@ -591,6 +599,6 @@ class MissionProgram:
         return InitializeAutoDiff(out, self.scale * J @ ExtractGradient(x))
 
     def Solve(self, initial_guess):
-        """Solves with IPOPT from ``initial_guess`` (layout of :attr:`variables`)."""
+        """Solves from ``initial_guess`` (layout of :attr:`variables`) with the chosen solver."""
         guess = np.clip(np.asarray(initial_guess, dtype=float), 0.0, 1.0)
         return self.solver.Solve(self.prog, guess, self.options)

@@ -542,10 +542,13 @@ class PlannerParams:
     feasible. Measured on worlds 0–22 of benchmarks/bench_policies.py (21 that the lowest plan
     completes): 300 s completed the same 19 as 0 s, at a mission quality of 0.478 instead of
     0.354."""
+    solver: str = "ipopt"
+    """NLP solver of the paper and mpc programs: "ipopt" or "snopt" (both bundled with Drake)."""
     max_iterations: int = 100
-    """IPOPT iteration limit per solve [-]: the only bound of a solve in simulation."""
+    """Iteration limit per solve [-] (IPOPT iterations, SNOPT major iterations): the only bound
+    of a solve in simulation."""
     max_wall_time: float = 0.0
-    """Opt-in real-time budget: IPOPT wall-time limit per solve [s]; 0 (every shipped scenario)
+    """Opt-in real-time budget: solver wall-time limit per solve [s]; 0 (every shipped scenario)
     disables it, so that a flight depends on its scenario only, never on the machine's speed."""
     hindsight_path_parameters: int = 5
     """Number of equally spaced c1 values of the hindsight grid (× every table value of c2)."""
@@ -599,6 +602,11 @@ class PlannerParams:
         _in_range(self.margin_sigmas, f"{key}.margin_sigmas", 0.0, 100.0)
         _in_range(self.fault_reserve, f"{key}.fault_reserve", 0.0, 1.0 - 1e-9)
         _in_range(self.fault_reserve_time, f"{key}.fault_reserve_time", 0.0, 1e5)
+        _check(
+            self.solver in ("ipopt", "snopt"),
+            f"{key}.solver",
+            f'must be "ipopt" or "snopt", got {self.solver!r}',
+        )
         _check(
             isinstance(self.max_iterations, int) and 1 <= self.max_iterations <= 10_000,
             f"{key}.max_iterations",

@@ -7,8 +7,8 @@ whatever decides c1 [m²] and c2 [table units] every h_T [s].
 
 - ``mpc`` (:class:`MpcPolicy`, default): the mission-feasible MPC of :mod:`eaplan_drake.mpc`.
 - ``paper`` (:class:`PaperPolicy`): paper 003 Eq. 16 + Alg. 2 as published
-  (:class:`~eaplan_drake.planner.Planner`: Def. III.3 output constraint, Eq. 10 line, rate-limited
-  path rule); the four reference flights use it.
+  (:class:`~eaplan_drake.paper_planner.Planner`: Def. III.3 output constraint, Eq. 10 line,
+  rate-limited path rule); the four reference flights use it.
 - ``greedy`` (:class:`GreedyPolicy`): a one-step rule fed the MPC's signals (exact remaining
   time, estimated power, Rint battery) but with no margin and one parameter at a time: c2 is the
   best value whose plan at the current c1 ends at or above the reserve, then c1 moves by at most
@@ -31,13 +31,9 @@ import numpy as np
 
 from eaplan_drake.computation import ComputationTable
 from eaplan_drake.mpc import MissionProblem, MissionProgram
+from eaplan_drake.paper_planner import Planner
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.planner import (
-    Planner,
-    PlannerDecision,
-    PlannerObservation,
-    PlannerPolicy,
-)
+from eaplan_drake.planner import PlannerDecision, PlannerObservation, PlannerPolicy
 
 __all__ = [
     "GreedyAuthorsPolicy",
@@ -83,8 +79,8 @@ class StaticPolicy(PlannerPolicy):
 
 
 class PaperPolicy(PlannerPolicy):
-    """Paper 003 Eq. 16 + Alg. 2 (:class:`~eaplan_drake.planner.Planner`); memory: the warm
-    start of its NLP."""
+    """Paper 003 Eq. 16 + Alg. 2 (:class:`~eaplan_drake.paper_planner.Planner`); memory: the warm
+    start of its NLP (carried unchanged with integer parameters, where no NLP is needed)."""
 
     name = "paper"
 

@@ -192,11 +192,12 @@ def test_more_uncertainty_or_less_charge_never_raises_the_quality(table):
         assert pb.BruteForce().quality <= base.quality + 1e-12
 
 
-def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan):
-    """Issue 8: the NLP (IPOPT + exact mapping) agrees with enumeration in >= 99 % of random
-    feasible planner states (a seeded set; benchmarks/bench_planner.py measures more)."""
+@pytest.mark.parametrize("solver", ["ipopt", "snopt"])
+def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan, solver):
+    """Issue 8: the NLP (IPOPT or SNOPT + exact mapping) agrees with enumeration in >= 99 % of
+    random feasible planner states (a seeded set; benchmarks/bench_planner.py measures more)."""
     policy = MakePolicy(
-        PlannerParams(),
+        PlannerParams(solver=solver),
         table,
         ORDER,
         BATTERY,
@@ -204,6 +205,7 @@ def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan
         path_parameter_grid=GRID,
     )
     assert isinstance(policy, MpcPolicy)
+    assert policy.program.solver.id().name().lower() == solver
     rng = np.random.default_rng(2024)
     memory = policy.InitialMemory()
     agree = total = 0

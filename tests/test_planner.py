@@ -11,8 +11,16 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from eaplan_drake.battery import PowerBudget, SocAfter, SocDerivative, TimeToSoc
+from eaplan_drake.battery import (
+    MaxDeliverablePower,
+    PowerBudget,
+    RintCurrent,
+    SocAfter,
+    SocDerivative,
+    TimeToSoc,
+)
 from eaplan_drake.computation import LoadComputationTable
+from eaplan_drake.coverage import ScalingFactors
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.planner import (
     ChoosePathParameter,
@@ -24,6 +32,13 @@ from eaplan_drake.planner import (
     SimpsonSoc,
 )
 from eaplan_drake.policies import MakePolicy
+from eaplan_drake.prediction import (
+    SimpsonSocSensitivity,
+    SimpsonSocSteps,
+    SocDerivativeSlope,
+    StepLoads,
+)
+from eaplan_drake.prediction import TimeToReserve as PureTimeToReserve
 
 ORDER = 3
 PERIOD = 46.0
@@ -90,6 +105,70 @@ def test_simpson_soc_exact_for_constant_and_accurate_for_periodic_load():
     assert abs(b[-1] - exact) < 1e-10
 
 
+def test_simpson_soc_sensitivity_is_the_analytic_derivative():
+    battery = BatteryParams()
+    V, R = battery.voltage, battery.internal_resistance
+    # Constant load y over a step h: Δb = −h k_b I(y)/Q_c, ∂Δb/∂y = −h k_b / (Q_c sqrt(V² − 4Ry)).
+    y = np.array([10.0, 35.0, 1000.0])
+    loads = np.broadcast_to(y, (3, 3))
+    expected = -2.0 * battery.k_b / (battery.capacity * np.sqrt(V * V - 4.0 * R * y))
+    np.testing.assert_allclose(SimpsonSocSensitivity(loads, battery, 2.0), expected, rtol=1e-12)
+    # A periodic load: against central differences of the rollout's steps.
+    f = _Fourier(Q_REF, 0.5 * np.arange(13), PERIOD)
+    eps = 1e-4
+    up = np.diff(SimpsonSocSteps(StepLoads(f, eps), 0.9, battery, 1.0))
+    down = np.diff(SimpsonSocSteps(StepLoads(f, -eps), 0.9, battery, 1.0))
+    np.testing.assert_allclose(
+        SimpsonSocSensitivity(StepLoads(f), battery, 1.0), (up - down) / (2 * eps), rtol=1e-7
+    )
+
+
+def test_rollout_saturates_at_brownout_like_rint_current():
+    """Above V²/(4 R_r) the load draws V/(2 R_r) (RintCurrent), never NaN, and ∂ḃ/∂y = 0."""
+    battery = BatteryParams()
+    p_max = MaxDeliverablePower(battery.voltage, battery.internal_resistance)
+    i_max = battery.voltage / (2.0 * battery.internal_resistance)
+    assert RintCurrent(2.0 * p_max, battery.voltage, battery.internal_resistance) == i_max
+    b = SimpsonSoc(np.full(5, 2.0 * p_max), 0.9, battery, 0.5)
+    np.testing.assert_allclose(b, 0.9 - battery.k_b * i_max / battery.capacity * 0.5 * np.arange(3))
+    assert SocDerivativeSlope(2.0 * p_max, battery) == 0.0
+    # The paper NLP's constraint uses the same rollout (c̃2 = 0 is c_prev here, so y = f).
+    table = LoadComputationTable("pednet_jetson_nano")
+    program = MakePlannerProgram(PlannerParams(horizon=2), table, battery)
+    program.SetData(np.full(5, 2.0 * p_max), 0.9, [2.0])
+    _, _, soc = program.Outputs(np.zeros((2, 1)))
+    np.testing.assert_allclose(soc, SimpsonSoc(np.full(5, 2.0 * p_max), 0.9, battery, 1.0))
+    assert np.all(np.isfinite(program._OutputConstraint(np.zeros(4))))
+    # t_b: the first brown-out sample.
+    f = np.full(2 * 10 + 1, 30.0)
+    f[6] = 2.0 * p_max  # the node between steps 2 and 3 (t = 3 s)
+    assert PureTimeToReserve(f, [0.0], 0.9, battery, 1.0) == 3.0
+
+
+def test_coverage_time_model_is_eq10_scaling_factors():
+    model = CoverageTimeModel((-1000.0, 0.0), COVERAGE_TIMES)
+    nu, tau = ScalingFactors((-1000.0, 0.0), COVERAGE_TIMES)
+    assert (model.nu, model.tau) == (nu[0], tau[0])
+    flat = CoverageTimeModel((-500.0, -500.0), (300.0, 300.0))
+    assert (flat.nu, flat.tau, flat(-500.0)) == (0.0, 300.0, 300.0)
+
+
+def test_snopt_solves_the_same_nlp(table):
+    """planner.solver = snopt: same relaxed optimum as IPOPT (to the solvers' tolerances)."""
+    ipopt = Planner(PlannerParams(), table, ORDER, BatteryParams(), COVERAGE_TIMES)
+    snopt = Planner(PlannerParams(solver="snopt"), table, ORDER, BatteryParams(), COVERAGE_TIMES)
+    for soc in (1.0, 0.68, 0.5):
+        a, slack_a = _Relaxed(ipopt, soc, [10.0])
+        b, slack_b = _Relaxed(snopt, soc, [10.0])
+        np.testing.assert_allclose(b, a, atol=0.05)  # IPOPT's barrier stays ≈ 0.03 off a bound
+        np.testing.assert_allclose(slack_b, slack_a, atol=1e-3)
+    continuous = Planner(
+        PlannerParams(solver="snopt"), table, ORDER, BatteryParams(), COVERAGE_TIMES, integer=False
+    )
+    sol = continuous.Plan(Q_REF, 0.68, PERIOD, 0.5, [10.0], 0.0)
+    assert sol.success and sol.feasible
+
+
 def test_output_constraint_jacobian_matches_finite_differences(table2):
     program = MakePlannerProgram(PlannerParams(horizon=4), table2, BatteryParams())
     f = FreeResponse(Q_REF, ORDER, PERIOD, 0.5, 9)
@@ -134,13 +213,25 @@ def test_program_variables_and_bounds(table):
 # -- the step: NLP + integer mapping ------------------------------------------------------------
 
 
+def _Relaxed(planner, soc, c_prev):
+    """(relaxed c2 over the horizon, slack [W]) of the planner's NLP for Q_REF."""
+    x, status, _ = planner.Relax(planner.ResponseRows(PERIOD) @ Q_REF, soc, c_prev)
+    assert x is not None, status
+    N, sigma = planner.horizon, planner.table.num_parameters
+    relaxed = planner.lower + np.clip(x[: N * sigma].reshape(N, sigma), 0.0, 1.0) * planner.span
+    return relaxed, x[N * sigma + N :]
+
+
 def test_plenty_of_battery_gives_highest_configuration(planner, table):
     sol = planner.Plan(Q_REF, 1.0, PERIOD, 0.5, [2.0], -1000.0)
     assert sol.success and sol.feasible
     assert sol.computation_parameters[0] == table.upper[0]
     np.testing.assert_array_equal(sol.computation_trajectory, table.upper[0])
-    assert np.max(sol.slack) < 1e-4
-    assert sol.relaxed_computation.min() > 9.9  # the relaxed optimum is the top too
+    # Integer parameters: the exact mapping decides, no NLP is solved.
+    assert sol.relaxed_computation is None and sol.slack is None and sol.solve_time == 0.0
+    relaxed, slack = _Relaxed(planner, 1.0, [2.0])
+    assert np.max(slack) < 1e-4
+    assert relaxed.min() > 9.9  # the relaxed optimum is the top too
     # c1: t_b is long enough for the remaining half survey at c1 = 0 (rate limit 500 per step).
     assert sol.time_to_reserve > 0.5 * COVERAGE_TIMES[1]
     assert sol.path_parameter == -500.0
@@ -154,7 +245,8 @@ def test_budget_below_lowest_power_gives_lowest_and_uses_slack(planner, table):
     sol = planner.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], 0.0)
     assert sol.success and not sol.feasible
     assert sol.computation_parameters[0] == table.lower[0]
-    np.testing.assert_allclose(sol.relaxed_computation, table.lower[0], atol=1e-3)
+    relaxed, slack = _Relaxed(planner, soc, [10.0])
+    np.testing.assert_allclose(relaxed, table.lower[0], atol=1e-3)
     f0 = Q_REF[0] + Q_REF[1] + Q_REF[3] + Q_REF[5]
     violation = f0 + table.power([2.0]) - table.power([10.0]) - PowerBudget(soc, BatteryParams())
     assert violation > 0.0
@@ -162,8 +254,8 @@ def test_budget_below_lowest_power_gives_lowest_and_uses_slack(planner, table):
     y_start, y_end, soc_nodes = planner.program.Outputs(np.zeros((6, 1)))
     budget = PowerBudget(soc_nodes, BatteryParams())
     violation_hat = np.maximum(y_start - budget[:-1], y_end - budget[1:])
-    np.testing.assert_allclose(sol.slack, violation_hat, atol=1e-4)
-    assert sol.slack[0] == pytest.approx(violation, abs=0.35)  # 2 × the fit error of ĝ
+    np.testing.assert_allclose(slack, violation_hat, atol=1e-4)
+    assert slack[0] == pytest.approx(violation, abs=0.35)  # 2 × the fit error of ĝ
 
 
 IN_BETWEEN_SOC = (0.62, 0.64, 0.66, 0.68, 0.70, 0.71, 0.72, 0.73, 0.74)
@@ -212,6 +304,17 @@ def test_two_parameter_table_maps_to_best_admissible_grid_point(table2):
         np.testing.assert_array_equal(sol.computation_parameters, best)
 
 
+def _AssertStepFeasible(table, battery, soc, c):
+    """c2 = c keeps y ≤ b·Q_c·V at the start and end of the first step, from c_prev = 10, and
+    lies between the largest admissible grid value and the top."""
+    assert _BruteForceC2(table, Q_REF, soc, [10.0]) <= c < table.upper[0]
+    f = _Fourier(Q_REF, np.array([0.0, 0.5, 1.0]), PERIOD)
+    y = f + table.power([c]) - table.power([10.0])
+    b1 = SimpsonSoc(y, soc, battery, 1.0)[1]
+    assert y[0] <= PowerBudget(soc, battery) + 1e-9 and y[2] <= PowerBudget(b1, battery) + 1e-9
+    return f
+
+
 def test_non_integer_parameters_are_feasible_and_above_the_grid_choice(table):
     battery = BatteryParams()
     continuous = Planner(PlannerParams(), table, ORDER, battery, COVERAGE_TIMES, integer=False)
@@ -219,11 +322,7 @@ def test_non_integer_parameters_are_feasible_and_above_the_grid_choice(table):
     sol = continuous.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], 0.0)
     assert sol.success and sol.feasible
     c = sol.computation_parameters[0]
-    assert _BruteForceC2(table, Q_REF, soc, [10.0]) <= c < table.upper[0]
-    f = _Fourier(Q_REF, np.array([0.0, 0.5, 1.0]), PERIOD)
-    y = f + table.power([c]) - table.power([10.0])
-    b1 = SimpsonSoc(y, soc, battery, 1.0)[1]
-    assert y[0] <= PowerBudget(soc, battery) + 1e-9 and y[2] <= PowerBudget(b1, battery) + 1e-9
+    f = _AssertStepFeasible(table, battery, soc, c)
     # ... and nearly active: a bit more would violate it (at the start or the end of the step).
     y = f + table.power([c + 0.05]) - table.power([10.0])
     b1 = SimpsonSoc(y, soc, battery, 1.0)[1]
@@ -239,14 +338,31 @@ def test_linear_power_model_gives_same_extremes(table):
     assert planner.Plan(Q_REF, 0.5, PERIOD, 0.5, [10.0], 0.0).computation_parameters[0] == 2.0
 
 
-def test_forced_failure_keeps_c1_and_takes_the_largest_admissible_c2(planner, table):
+def test_integer_step_needs_no_nlp_and_decides_as_after_a_solve(planner, table):
+    """The mapping never reads the relaxed optimum: an iteration limit that makes every solve
+    fail changes nothing for integer parameters."""
     params = PlannerParams(max_iterations=1)
-    failing = Planner(params, table, ORDER, BatteryParams(), COVERAGE_TIMES)
-    sol = failing.Plan(Q_REF, 0.68, PERIOD, 0.5, [10.0], -300.0)
+    limited = Planner(params, table, ORDER, BatteryParams(), COVERAGE_TIMES)
+    for soc in (1.0, *IN_BETWEEN_SOC, 0.5):
+        sol = limited.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], -300.0)
+        ref = planner.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], -300.0)
+        assert sol.success and "no NLP" in sol.status
+        np.testing.assert_array_equal(sol.computation_trajectory, ref.computation_trajectory)
+        assert sol.path_parameter == ref.path_parameter
+        assert sol.time_to_reserve == ref.time_to_reserve
+    assert limited.Relax(limited.ResponseRows(PERIOD) @ Q_REF, 0.68, [10.0])[0] is None
+
+
+def test_forced_failure_keeps_c1_and_takes_the_largest_admissible_c2(table):
+    params = PlannerParams(max_iterations=1)
+    battery = BatteryParams()
+    failing = Planner(params, table, ORDER, battery, COVERAGE_TIMES, integer=False)
+    soc = 0.68
+    sol = failing.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], -300.0)
     assert not sol.success
     assert "solver failed" in sol.status
     assert sol.path_parameter == -300.0  # kept
-    assert sol.computation_parameters[0] == _BruteForceC2(table, Q_REF, 0.68, [10.0])
+    _AssertStepFeasible(table, battery, soc, sol.computation_parameters[0])
     bad = failing.Plan(Q_REF, math.nan, PERIOD, 0.5, [10.0], 0.0)
     assert not bad.success and "invalid input" in bad.status
 
@@ -299,25 +415,29 @@ def test_time_to_reserve_matches_closed_form_for_constant_load(planner):
 GRID = np.linspace(-1000.0, 0.0, 21)
 
 
-def _Scheduler(params, table, c2_0, policy=None):
-    """A PlannerScheduler around ``params.policy`` (the paper's by default in these tests)."""
-    policy = policy or MakePolicy(
+def _Policy(params, table, integer=True):
+    """The policy ``params.policy`` names for these tests' battery, coverage times and grid."""
+    return MakePolicy(
         params,
         table,
         ORDER,
         BatteryParams(),
         coverage_time_bounds=COVERAGE_TIMES,
         path_parameter_grid=GRID,
+        integer=integer,
     )
+
+
+def _Scheduler(params, table, c2_0, policy=None, integer=True):
+    """A PlannerScheduler around ``params.policy`` (the paper's by default in these tests)."""
+    policy = policy or _Policy(params, table, integer)
     return PlannerScheduler(
-        policy,
+        params,
+        policy=policy,
         table=table,
         order=ORDER,
-        period=params.period,
-        warmup=params.warmup,
         initial_path_parameter=params.initial_path_parameters[0],
         initial_computation_parameters=c2_0,
-        path_parameter_grid_size=GRID.size,
     )
 
 
@@ -381,15 +501,29 @@ def test_system_ports(table, table2):
         )
     with pytest.raises(ValueError, match="policy: must be a PlannerPolicy"):
         PlannerScheduler(
-            object(),
+            PlannerParams(),
+            policy=object(),
             table=table,
             order=ORDER,
-            period=1.0,
-            warmup=0.0,
             initial_path_parameter=0.0,
             initial_computation_parameters=[2.0],
-            path_parameter_grid_size=GRID.size,
         )
+    with pytest.raises(ValueError, match="planner.period"):
+        _Scheduler(PlannerParams(policy="paper", period=-1.0), table, [2.0], policy=system.policy)
+
+
+def test_system_copies_its_params_and_uses_the_given_policy(table):
+    params = PlannerParams(policy="paper", warmup=2.0, period=1.0)
+    policy = _Policy(params, table)
+    system = _Scheduler(params, table, [10.0], policy=policy)
+    assert system.policy is policy  # the scheduler never builds its own
+    params.period, params.warmup, params.path_parameter_grid_size = 5.0, 0.0, 3
+    assert system.params.period == 1.0 and system.params.warmup == 2.0
+    assert system.GetInputPort("remaining_time").size() == GRID.size
+    diagram, _ = _Diagram(system)
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(4.5)
+    assert system.statistics()["solves"] == 3  # t = 2, 3, 4: the copied period and warm-up
 
 
 def test_system_outputs_change_only_at_update_times(table):
@@ -402,7 +536,7 @@ def test_system_outputs_change_only_at_update_times(table):
     stats = system.statistics()
     assert stats["solves"] == 5  # t = 2, 3, 4, 5, 6
     assert stats["failures"] == 0
-    assert len(stats["solve_times"]) == 5 and stats["median_solve_time"] > 0.0
+    assert len(stats["step_times"]) == 5 and stats["median_step_time"] > 0.0
     for log in logs:
         log = log.FindLog(context)
         t, data = log.sample_times(), log.data()
@@ -432,7 +566,7 @@ def test_system_static_holds_initial_parameters(table):
 
 def test_system_forced_failure_is_counted_and_falls_back(table):
     params = PlannerParams(policy="paper", warmup=0.0, max_iterations=1)
-    system = _Scheduler(params, table, [10.0])
+    system = _Scheduler(params, table, [10.0], integer=False)  # continuous c2 solves the NLP
     diagram, logs = _Diagram(system, soc=1.0)
     simulator = Simulator(diagram)
     simulator.AdvanceTo(2.5)
@@ -448,8 +582,10 @@ def test_system_forced_failure_is_counted_and_falls_back(table):
     assert system.statistics()["solves"] == 0
 
 
-def test_planner_params_power_model_is_validated():
+def test_planner_params_power_model_and_solver_are_validated():
     from eaplan_drake.params import ScenarioError
 
     with pytest.raises(ScenarioError, match="planner.power_model"):
         PlannerParams(power_model="cubic").Validate()
+    with pytest.raises(ScenarioError, match="planner.solver"):
+        PlannerParams(solver="gurobi").Validate()
