@@ -227,7 +227,6 @@ def AddPlannerScheduler(
     sequencer's c1 and the computation load's c2. ``initial_parameters`` = (c1 [m²], c2) flown
     until the first planner step (:func:`~eaplan_drake.resolve.StartParameters`)."""
     c1_0, c2_0 = initial_parameters
-    grid = scenario.planner.PathParameterGrid()
     planner = builder.AddNamedSystem(
         "planner",
         PlannerScheduler(
