@@ -23,12 +23,11 @@ and sign). An error names the file, line and column.
 
 Gains: the authors' k_e (0.0003 for circles, 0.05 for lines) are tuned for their un-normalised φ
 (a circle's φ grows like 2Rδ for a distance δ off it). Our guidance works on normalised φ, so every
-stage gets our k_e (``k_e=`` argument, default ``GuidanceParams().k_e``); the file's value is
-kept in :attr:`PlanStageSpec.file_k_e` for reference.
+stage gets our k_e (``k_e=`` argument, the scenario's ``GuidanceParams.k_e``); the file's value
+is kept in :attr:`PlanStageSpec.file_k_e` for reference.
 """
 
 import dataclasses as dc
-import functools
 import math
 import re
 from pathlib import Path
@@ -42,8 +41,9 @@ from .coverage import (
     PathLength,
     PlanSource,
     Stage,
+    ZamboniCoverage,
 )
-from .params import GuidanceParams, ReadTextFile
+from .params import ReadTextFile
 from .paths import PathFunction
 
 __all__ = [
@@ -54,6 +54,7 @@ __all__ = [
     "PlanFile",
     "ReadPlanFile",
     "LoadPlanFile",
+    "MakePlanSource",
     "REFERENCE_PLAN",
 ]
 
@@ -369,9 +370,20 @@ class PlanFile(PlanSource):
     """A plan read from a ``.pln`` file, as a function of c1 (see module doc).
 
     Stage i is primitive −1 (approach) for i < ``approach_stages``, then
-    (i − approach_stages) mod ``num_primitives``. ``start`` [m] is where the aircraft starts (it
-    sets the first stage's length). Re-planning with a new c1 re-evaluates the stages after the
-    current one from the file (the authors' semantics).
+    (i − approach_stages) mod ``num_primitives``. Re-planning with a new c1 re-evaluates the stages
+    after the current one from the file (the authors' semantics).
+
+    Args:
+        specs, shift: as :func:`ParsePlanText` returns them.
+        source: the file's name in error messages.
+        k_e: field gain of every stage [1/m].
+        start: where the aircraft starts [m] (it sets the first stage's length).
+        airspeed: v_a [m/s] the plan is flown at.
+        initial_c1: c1 of the initial plan [m²], within ``c1_bounds``.
+        c1_bounds: [c̲1, c̄1] [m²] over which the file's expressions are evaluated (both ends are
+            checked here; errors name the line).
+        final_point: triggering point (x, y) [m] of a last stage that has none in the file.
+        num_primitives, approach_stages: the stage numbering above.
     """
 
     def __init__(
@@ -380,10 +392,12 @@ class PlanFile(PlanSource):
         shift=None,
         *,
         source: str = "<plan>",
-        k_e=None,
-        start=(-100.0, 220.0),
+        k_e: float,
+        start,
+        airspeed: float,
+        initial_c1: float,
+        c1_bounds,
         final_point=None,
-        c1_bounds=(-1000.0, 0.0),
         num_primitives: int = NUM_PRIMITIVES,
         approach_stages: int = 1,
     ):
@@ -392,10 +406,12 @@ class PlanFile(PlanSource):
         self.source = source
         if not self.specs:
             raise PlanFileError(f"{source}: no stages in the plan")
-        self.k_e = GuidanceParams().k_e if k_e is None else float(k_e)
+        self.k_e = float(k_e) if isinstance(k_e, int | float) else math.nan
         if not (math.isfinite(self.k_e) and self.k_e > 0):
             raise ValueError(f"PlanFile.k_e: must be > 0 1/m, got {k_e!r}")
-        self.start = np.asarray(start, dtype=float).reshape(2)
+        self.start = np.array(start, dtype=float).reshape(2)
+        if not np.all(np.isfinite(self.start)):
+            raise ValueError(f"PlanFile.start: must be a finite [x, y] in m, got {start!r}")
         self.final_point = None if final_point is None else tuple(float(v) for v in final_point)
         for spec in self.specs[:-1]:
             if spec.trigger is None:
@@ -405,10 +421,6 @@ class PlanFile(PlanSource):
                 f"{source}:{self.specs[-1].line}: the last stage has no triggering (final) point; "
                 "pass final_point=(x, y)"
             )
-        lo, hi = (float(v) for v in c1_bounds)
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
-            raise ValueError(f"PlanFile.c1_bounds: need finite lower <= upper, got {c1_bounds}")
-        self.c1_bounds = (lo, hi)
         if not (isinstance(num_primitives, int) and num_primitives >= 1):
             raise ValueError(
                 f"PlanFile.num_primitives: must be an integer >= 1, got {num_primitives}"
@@ -420,10 +432,10 @@ class PlanFile(PlanSource):
             )
         self.num_primitives = num_primitives
         self.approach_stages = approach_stages
-        self._cache = functools.lru_cache(maxsize=64)(self._Stages)
+        super().__init__(c1_bounds, initial_c1=initial_c1, airspeed=airspeed)
         # Both ends of the c1 range must give a valid plan (errors name the line).
-        for c1 in {lo, hi}:
-            self._cache(c1)
+        for c1 in set(self.c1_bounds):
+            self.Stages(c1)
 
     def _Primitive(self, i: int) -> int:
         if i < self.approach_stages:
@@ -471,10 +483,7 @@ class PlanFile(PlanSource):
             entry = trig
         return tuple(stages)
 
-    def Stages(self, c1: float) -> tuple[Stage, ...]:
-        return self._cache(self.CheckC1(c1))
-
-    def StagesAfter(self, index: int, anchor, c1: float) -> tuple[Stage, ...]:
+    def _StagesAfter(self, index: int, anchor, c1: float) -> tuple[Stage, ...]:
         return self.Stages(c1)[int(index) + 1 :]
 
 
@@ -612,12 +621,9 @@ def ParsePlanText(text: str, source: str = "<plan>"):
 
 
 def ReadPlanFile(path_or_text=None, *, text: str | None = None, **kwargs) -> PlanFile:
-    """Reads a plan file (``path_or_text`` a path; or ``text=``) into a :class:`PlanFile`.
-
-    Keyword arguments go to :class:`PlanFile` (``k_e``, ``start``, ``final_point``,
-    ``c1_bounds``, ``num_primitives``, ``approach_stages``). Without arguments: the packaged
-    reference plan.
-    """
+    """Reads a plan file (``path_or_text`` a path, None for the packaged reference plan; or
+    ``text=``) into a :class:`PlanFile`; keyword arguments go to :class:`PlanFile` (``k_e``,
+    ``start``, ``airspeed``, ``initial_c1``, ``c1_bounds`` are required there)."""
     if text is None:
         path = Path(REFERENCE_PLAN if path_or_text is None else path_or_text)
         if not path.is_file():
@@ -634,18 +640,43 @@ def _ReadPlanText(path: Path) -> str:
 
 
 def LoadPlanFile(
-    name_or_path: str, vehicle=None, c1: float | None = None, k_e=None, **kwargs
+    name_or_path: str, vehicle, *, c1: float, k_e: float, c1_bounds, **kwargs
 ) -> PlanFile:
     """A scenario's plan file: ``"reference"`` (or ``"reference_plan"``) is the packaged authors'
-    plan, anything else a path. Start position and airspeed from ``vehicle`` (default the
-    reference :class:`~eaplan_drake.params.VehicleParams`), initial ``c1`` [m²] (default the upper
-    bound), ``k_e`` [1/m]; other keywords go to :class:`PlanFile`."""
-    from .params import VehicleParams
-
-    vehicle = VehicleParams() if vehicle is None else vehicle
+    plan, anything else a path. Start position and airspeed from ``vehicle``
+    (:class:`~eaplan_drake.params.VehicleParams`), initial ``c1`` [m²], ``k_e`` [1/m] and
+    ``c1_bounds`` [m²]; other keywords go to :class:`PlanFile`."""
     path = REFERENCE_PLAN if name_or_path in ("reference", "reference_plan") else name_or_path
-    kwargs.setdefault("start", vehicle.initial_position)
-    plan = ReadPlanFile(path, k_e=k_e, **kwargs)
-    plan.initial_c1 = plan.CheckC1(plan.c1_bounds[1] if c1 is None else c1)
-    plan.airspeed = float(vehicle.airspeed)
-    return plan
+    return ReadPlanFile(
+        path,
+        k_e=k_e,
+        start=vehicle.initial_position,
+        airspeed=vehicle.airspeed,
+        initial_c1=c1,
+        c1_bounds=c1_bounds,
+        **kwargs,
+    )
+
+
+def MakePlanSource(scenario, *, initial_c1: float) -> PlanSource:
+    """The plan source of ``scenario`` (a :class:`~eaplan_drake.params.Scenario`): its
+    ``coverage.plan_file`` (c1 over ``planner.path_parameter_bounds``) or else the generated
+    Zamboni-like coverage of ``coverage``; flown from ``vehicle.initial_position`` at
+    ``vehicle.airspeed`` with the field gain ``guidance.k_e``, starting with ``initial_c1`` [m²]
+    (:func:`~eaplan_drake.resolve.StartParameters`). Raises ValueError (or OSError for a file)."""
+    coverage, vehicle, k_e = scenario.coverage, scenario.vehicle, scenario.guidance.k_e
+    if coverage.plan_file:
+        return LoadPlanFile(
+            coverage.plan_file,
+            vehicle,
+            c1=initial_c1,
+            k_e=k_e,
+            c1_bounds=scenario.planner.path_parameter_bounds,
+        )
+    return ZamboniCoverage(
+        coverage,
+        start=vehicle.initial_position,
+        airspeed=vehicle.airspeed,
+        initial_c1=initial_c1,
+        k_e=k_e,
+    )
