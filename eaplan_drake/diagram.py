@@ -104,8 +104,8 @@ def MakeEaplanDiagram(
             initial_c1=c1_0,
             trigger_radius=scenario.coverage.trigger_radius,
             initial_period=scenario.energy_model.initial_period,
-            airspeed=scenario.vehicle.airspeed,
             wind=w,
+            time_step=1.0 / scenario.sensor.rate,
             path_parameter_grid=grid,
         ),
     )

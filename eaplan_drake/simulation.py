@@ -374,7 +374,9 @@ def Simulate(
     simulator.set_monitor(monitor)
     try:
         simulator.Initialize()
-        simulator.AdvanceTo(scenario.simulation.time_limit)
+        status = simulator.AdvanceTo(scenario.simulation.time_limit)
+        if status.message() == STATUS_COMPLETE:  # the sequencer's own termination
+            state["status"] = STATUS_COMPLETE
     except NonFiniteCommandError:
         state["status"] = STATUS_NUMERICAL
     wall_time = time.perf_counter() - wall_start

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from eaplan_drake.params import CoverageParams, GuidanceParams, VehicleParams
+from eaplan_drake.params import CoverageParams, EnergyModelParams, GuidanceParams, VehicleParams
 
 __all__ = ["FlyTracking", "MakeTrackingDiagram", "PathError", "TRACKING_SIGNALS"]
 
@@ -78,7 +78,14 @@ def MakeTrackingDiagram(
         ),
     )
     seq = builder.AddNamedSystem(
-        "sequencer", StageSequencer(plan, initial_c1=c1, trigger_radius=trigger_radius)
+        "sequencer",
+        StageSequencer(
+            plan,
+            initial_c1=c1,
+            trigger_radius=trigger_radius,
+            initial_period=EnergyModelParams().initial_period,
+            wind=w,
+        ),
     )
     wind_source = builder.AddNamedSystem("wind", ConstantVectorSource(w))
     c1_source = builder.AddNamedSystem("path_parameters", ConstantVectorSource([float(c1)]))
