@@ -15,11 +15,12 @@ this gives ``1;x+115`` travelling towards −y and ``0;x-35`` towards +y, as the
 
 Expressions are parsed by a small recursive-descent parser over a whitelisted grammar — numbers,
 ``x``, ``y``, ``c1``, ``+ - * / ^``, unary minus, ``sqrt( )`` and parentheses — never ``eval``.
-Each path expression must be a line or a circle: φ = a(x² + y²) + b_x x + b_y y + c. This is
-checked by fitting the general quadratic to the expression at 16 points around the triggering
-point and requiring a zero residual, equal x² and y² and no xy coefficient; anything else is
-rejected. The path function is then normalised (‖∇φ‖ = 1 on the path, same zero set, direction
-and sign). An error names the file, line and column.
+Each path expression must be a line or a circle: φ = a(x² + y²) + b_x x + b_y y + c. The
+expression is evaluated at the stage's c1 with x, y as ``pydrake.symbolic`` variables (its parts
+free of x, y numerically) and its exact coefficients read from ``pydrake.symbolic.Polynomial``:
+degree ≤ 2, equal x² and y² coefficients and no xy term; anything else (also sqrt, division or a
+non-integer power of x or y) is rejected. The path function is then normalised (‖∇φ‖ = 1 on the
+path, same zero set, direction and sign). An error names the file, line and column.
 
 Gains: the authors' k_e (0.0003 for circles, 0.05 for lines) are tuned for their un-normalised φ
 (a circle's φ grows like 2Rδ for a distance δ off it). Our guidance works on normalised φ, so every
@@ -33,6 +34,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+from pydrake import symbolic as sym
 
 from .coverage import (
     ANCHOR_SIZE,
@@ -285,60 +287,64 @@ def ParseExpression(text: str, col0: int = 1) -> Expression:
 
 # -- quadratic form -----------------------------------------------------------------------------
 
-_OFFSETS = np.array(
-    [
-        [0.0, 0.0],
-        [1.0, 0.0],
-        [0.0, 1.0],
-        [-1.0, 0.0],
-        [0.0, -1.0],
-        [1.0, 1.0],
-        [-1.0, 1.0],
-        [1.0, -1.0],
-        [-1.0, -1.0],
-        [2.0, 0.5],
-        [0.5, -2.0],
-        [-1.5, 2.0],
-        [-2.0, -0.5],
-        [0.3, 1.7],
-        [1.3, -0.7],
-        [-0.6, -1.9],
-    ]
-)
 
-
-def QuadraticForm(f, center, scale: float = 100.0) -> tuple[float, float, float, float]:
-    """(a, b_x, b_y, c) with f(x, y) = a (x² + y²) + b_x x + b_y y + c, identified from f at 16
-    points within ``scale`` [m] of ``center``; ValueError if f is not of that form."""
-    q = np.asarray(center, dtype=float)
-    P = q + scale * _OFFSETS
-    values = np.array([f(px, py) for px, py in P])
-    d = (P - q) / scale
-    M = np.column_stack(
-        [d[:, 0] ** 2, d[:, 1] ** 2, d[:, 0] * d[:, 1], d[:, 0], d[:, 1], 0 * d[:, 0] + 1]
+def _Polynomial(node, c1: float, x, y):
+    """The expression tree as a ``pydrake.symbolic.Expression`` in the variables x, y at c1:
+    sub-expressions free of x and y are evaluated numerically (with :func:`_Eval`'s domain
+    checks); in x and y only +, −, ·, division by a constant and a constant non-negative integer
+    power are allowed (a polynomial), anything else is not a line or a circle."""
+    if not _Uses(node, set()) & {"x", "y"}:
+        return sym.Expression(_Eval(node, {"x": 0.0, "y": 0.0, "c1": c1}))
+    kind, col = node[0], node[1]
+    if kind == "var":
+        return x if node[2] == "x" else y
+    if kind == "neg":
+        return -_Polynomial(node[2], c1, x, y)
+    if kind in ("add", "sub", "mul"):
+        a, b = _Polynomial(node[2], c1, x, y), _Polynomial(node[3], c1, x, y)
+        return a + b if kind == "add" else a - b if kind == "sub" else a * b
+    if kind in ("div", "pow") and not _Uses(node[3], set()) & {"x", "y"}:
+        v = _Eval(node[3], {"x": 0.0, "y": 0.0, "c1": c1})
+        if kind == "div" and v != 0.0:
+            return _Polynomial(node[2], c1, x, y) / v
+        if kind == "pow" and v == int(v) and 0 <= v <= 2:
+            return _Polynomial(node[2], c1, x, y) ** int(v)
+    what = {"sqrt": "sqrt", "div": "division", "pow": "power"}[kind]
+    raise _ExprError(
+        col, f"not a line or a circle: a {what} of x or y (need a polynomial of degree <= 2)"
     )
-    coef, *_ = np.linalg.lstsq(M, values, rcond=None)
-    size = float(np.max(np.abs(values))) + 1e-300
-    residual = float(np.max(np.abs(M @ coef - values)))
-    if residual > 1e-9 * size:
-        raise ValueError(
-            "not a line or a circle: the expression is not a polynomial of degree <= 2 in x, y "
-            f"(fit residual {residual:.3g})"
-        )
-    axx, ayy, axy, bx, by, c0 = coef
-    if abs(axy) > 1e-9 * size or abs(axx - ayy) > 1e-9 * size:
+
+
+def QuadraticForm(expression: Expression, c1: float = 0.0) -> tuple[float, float, float, float]:
+    """(a, b_x, b_y, c), exactly, with ``expression``(x, y, c1) = a (x² + y²) + b_x x + b_y y + c
+    (the coefficients of ``pydrake.symbolic.Polynomial`` in x, y); ValueError naming the column if
+    the expression is not of that form at ``c1`` [m²]."""
+    x, y = sym.Variable("x"), sym.Variable("y")
+    try:
+        e = _Polynomial(expression.tree, float(c1), x, y)
+    except _ExprError as err:
+        raise ValueError(f"column {err.col}: {err.message}") from None
+    coefficients = {}
+    for monomial, value in (
+        sym.Polynomial(e, sym.Variables([x, y])).monomial_to_coefficient_map().items()
+    ):
+        degree = (monomial.degree(x), monomial.degree(y))
+        if sum(degree) > 2:
+            raise ValueError("not a line or a circle: a polynomial of degree > 2 in x, y")
+        coefficients[degree] = float(value.Evaluate())
+    axx, ayy = coefficients.get((2, 0), 0.0), coefficients.get((0, 2), 0.0)
+    axy = coefficients.get((1, 1), 0.0)
+    if axy != 0.0 or axx != ayy:
         raise ValueError(
             "not a line or a circle: need equal x² and y² coefficients and no x·y term "
-            f"(got {axx / scale**2:.6g} x², {ayy / scale**2:.6g} y², {axy / scale**2:.6g} x·y)"
+            f"(got {axx:.6g} x², {ayy:.6g} y², {axy:.6g} x·y)"
         )
-    A = 0.5 * (axx + ayy) / scale**2
-    B = np.array([bx, by]) / scale
-    if abs(A) * scale**2 <= 1e-12 * size:
-        A = 0.0
-    a = A
-    b = B - 2.0 * A * q
-    c = A * float(q @ q) - float(B @ q) + c0
-    return float(a), float(b[0]), float(b[1]), float(c)
+    return (
+        axx,
+        coefficients.get((1, 0), 0.0),
+        coefficients.get((0, 1), 0.0),
+        coefficients.get((0, 0), 0.0),
+    )
 
 
 # -- plan files ---------------------------------------------------------------------------------
@@ -458,7 +464,7 @@ class PlanFile(PlanSource):
             try:
                 if not spec.path.variables & {"x", "y"}:
                     raise ValueError("not a line or a circle: it does not depend on x or y")
-                a, bx, by, c = QuadraticForm(lambda x, y, e=spec.path: e(x, y, c1), trig)
+                a, bx, by, c = QuadraticForm(spec.path, c1)
                 path = PathFunction(a=a, b=(bx, by), c=c, s=spec.s, k_e=self.k_e).normalised()
                 if path.is_circle:
                     path.radius  # noqa: B018  (raises if no real circle)

@@ -83,21 +83,27 @@ def test_expression_domain_errors():
 
 def test_quadratic_form_identification():
     circle = ParseExpression("(x+45)^2+(y-146)^2-4900")
-    a, bx, by, c = QuadraticForm(lambda x, y: circle(x, y), (-115.0, 146.0))
-    assert (a, bx, by, c) == pytest.approx((1.0, 90.0, -292.0, 45**2 + 146**2 - 4900), rel=1e-9)
-    line = ParseExpression("x-35")
-    assert QuadraticForm(lambda x, y: line(x, y), (35.0, 146.0)) == pytest.approx(
-        (0.0, 1.0, 0.0, -35.0), abs=1e-9
-    )
+    assert QuadraticForm(circle) == (1.0, 90.0, -292.0, 45**2 + 146**2 - 4900)  # exact
+    assert QuadraticForm(ParseExpression("x-35")) == (0.0, 1.0, 0.0, -35.0)
+    # c1 enters through constant sub-expressions, evaluated with the domain checks.
+    shifted = ParseExpression("(x-sqrt(4900+c1))^2/2+y^2/2-c1")
+    r = math.sqrt(3900.0)
+    assert QuadraticForm(shifted, -1000.0) == pytest.approx((0.5, -r, 0.0, r * r / 2 + 1000.0))
+    assert QuadraticForm(ParseExpression("x^2+y^2-(c1+1)^2"), 1.0) == (1.0, 0.0, 0.0, -4.0)
     for bad, match in (
-        ("x^3+y", "degree <= 2"),
-        ("sqrt(x^2+y^2)-10", "degree <= 2"),
+        ("x^3+y", "power of x or y.*degree <= 2"),
+        ("(x^2+y)^2", "degree > 2"),
+        ("sqrt(x^2+y^2)-10", "column 1: .*sqrt of x or y"),
+        ("1/x", "column 2: .*division of x or y"),
+        ("x^0.5+y", "column 2: .*power of x or y"),
+        ("x^y", "power of x or y"),
         ("x*y-1", "x·y"),
         ("x^2+2*y^2-1", "equal x² and y²"),
     ):
-        e = ParseExpression(bad)
         with pytest.raises(ValueError, match=match):
-            QuadraticForm(lambda x, y, e=e: e(x, y), (10.0, 10.0))
+            QuadraticForm(ParseExpression(bad))
+    with pytest.raises(ValueError, match="sqrt of a negative"):
+        QuadraticForm(ParseExpression("x+sqrt(c1)"), -1.0)
 
 
 def test_reference_plan_reads_into_the_generated_geometry():
