@@ -34,16 +34,16 @@ done at every n-th tick, n = max(1, round(update_period / time_step)); the other
 When the survey completes, the update returns ``EventStatus.ReachedTermination(self,
 "complete")``: a ``Simulator`` stops there, without a monitor.
 
-State (discrete groups): ``mode`` (namedview :data:`SequencerMode`: active stage index, mission
-complete flag, c1, the held remaining fraction and the held share of the active stage still to
-fly), ``period`` (T [s]), ``path`` (the active stage's path descriptor, the held ``path`` output),
+State (discrete groups): ``mode`` (namedview :data:`SequencerMode`: active stage index, c1, the
+held remaining fraction and the held share of the active stage still to fly), ``period`` (T [s]),
+``complete`` (0/1), ``path`` (the active stage's path descriptor, the held ``path`` output),
 ``entries`` (last entry time into each primitive stage) and ``source`` (namedview
 :data:`StageSource`: the stage after which the active one was generated, its anchor and the c1 it
 was generated with; ``after_index`` −1 means the plan's first stage). The stage's geometry is not
-state: it comes from the plan source (a pure, cached function of those numbers). ``path`` and
-``period`` are state output ports (read every step by the guidance and the estimator without a
-Python call); the other outputs depend on the state only (no direct feedthrough). Ports: see
-:class:`StageSequencer`.
+state: it comes from the plan source (a pure, cached function of those numbers). ``path``,
+``period`` and ``mission_complete`` are state output ports (read every step by the guidance, the
+estimator and a monitor without a Python call); the other outputs depend on the state only (no
+direct feedthrough). Ports: see :class:`StageSequencer`.
 """
 
 import math
@@ -67,9 +67,9 @@ __all__ = ["SequencerMode", "StageSequencer", "StageSource", "Triggered", "UPDAT
 UPDATE_PERIOD = 0.05
 """Default period of the sequencer's trigger test [s] (the authors' simulator's)."""
 
-SequencerMode = namedview("SequencerMode", ["stage", "complete", "c1", "remaining", "stage_left"])
-"""The sequencer's ``mode`` state: active stage index, complete (0/1), c1 [m²], remaining survey
-fraction [-], share of the active stage's path still to fly [-]."""
+SequencerMode = namedview("SequencerMode", ["stage", "c1", "remaining", "stage_left"])
+"""The sequencer's ``mode`` state: active stage index, c1 [m²], remaining survey fraction [-],
+share of the active stage's path still to fly [-]."""
 
 StageSource = namedview(
     "StageSource", ["after_index"] + [f"anchor_{i}" for i in range(ANCHOR_SIZE)] + ["c1"]
@@ -197,6 +197,7 @@ class StageSequencer(LeafSystem):
         source.c1 = c1
         self._mode_index = self.DeclareDiscreteState(mode[:])
         self._period_index = self.DeclareDiscreteState([float(initial_period)])
+        self._complete_index = self.DeclareDiscreteState([0.0])
         self._path_index = self.DeclareDiscreteState(first.descriptor.copy())
         self._entries_index = self.DeclareDiscreteState(np.full(self._num_primitives, -1.0))
         self._source_index = self.DeclareDiscreteState(source[:])
@@ -227,8 +228,8 @@ class StageSequencer(LeafSystem):
         self._remaining_time_port = self.DeclareVectorOutputPort(
             "remaining_time", self._grid.size, self._CalcRemainingTime, prerequisites_of_calc=xd
         )
-        self._mission_complete_port = self.DeclareVectorOutputPort(
-            "mission_complete", 1, _Mode("complete"), prerequisites_of_calc=xd
+        self._mission_complete_port = self.DeclareStateOutputPort(
+            "mission_complete", self._complete_index
         )
 
     # -- accessors -------------------------------------------------------------------------------
@@ -304,7 +305,7 @@ class StageSequencer(LeafSystem):
 
     def _CalcRemainingTime(self, context, output) -> None:
         mode = SequencerMode(context.get_discrete_state(self._mode_index).value())
-        if mode.complete > 0.5:
+        if context.get_discrete_state(self._complete_index).GetAtIndex(0) > 0.5:
             output.SetFromVector(np.zeros(self._grid.size))
             return
         stage = self.ActiveStage(context)
@@ -315,9 +316,10 @@ class StageSequencer(LeafSystem):
     def _Update(self, context, discrete_state):
         if self._ticks > 1 and round(context.get_time() / self._time_step) % self._ticks:
             return EventStatus.DidNothing()
-        mode = SequencerMode(context.get_discrete_state(self._mode_index).CopyToVector())
-        if mode.complete > 0.5:
+        if context.get_discrete_state(self._complete_index).GetAtIndex(0) > 0.5:
             return EventStatus.ReachedTermination(self, "complete")
+        mode = SequencerMode(context.get_discrete_state(self._mode_index).CopyToVector())
+        complete = False
         source = context.get_discrete_state(self._source_index).CopyToVector()
         entries = context.get_discrete_state(self._entries_index).CopyToVector()
         period = context.get_discrete_state(self._period_index).GetAtIndex(0)
@@ -340,7 +342,7 @@ class StageSequencer(LeafSystem):
                     break
                 rest = plan.StagesAfter(stage.index, stage.anchor, c1)
                 if not rest:
-                    mode.complete = 1.0
+                    complete = True
                     break
                 source[:] = (stage.index, *stage.anchor, c1)
                 stage, rest_length = self._ActiveOf(source)
@@ -351,7 +353,7 @@ class StageSequencer(LeafSystem):
                     if last >= 0.0 and t > last:
                         period = t - last
                     entries[k] = t
-            if mode.complete > 0.5:
+            if complete:
                 mode.remaining = 0.0
             else:
                 mode.remaining = SurveyFraction(stage, (px, py), rest_length, self._total)
@@ -362,6 +364,7 @@ class StageSequencer(LeafSystem):
         discrete_state.set_value(self._source_index, source)
         discrete_state.set_value(self._period_index, [period])
         discrete_state.set_value(self._path_index, stage.descriptor)
-        if mode.complete > 0.5:
+        if complete:
+            discrete_state.set_value(self._complete_index, [1.0])
             return EventStatus.ReachedTermination(self, "complete")
         return EventStatus.Succeeded()
