@@ -90,7 +90,7 @@ def MpcAgreement(states: int, solver: str, seed: int = 8):
     scenario.planner.solver = solver
     table = LoadComputationTable(scenario.computation.table)
     grid = scenario.planner.PathParameterGrid()
-    plan = MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=0.0)
+    plan = MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=0.0, k_e=scenario.guidance.k_e)
     policy = MakePolicy(
         scenario.planner,
         table,

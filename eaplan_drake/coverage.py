@@ -39,14 +39,18 @@ remaining time at any c1 because both numerator and denominator scale alike with
 spacing (paper 003 Alg. 2 l. 25).
 """
 
+import copy
 import dataclasses as dc
 import functools
 import math
+import typing
 
 import numpy as np
 
-from .params import CoverageParams, GuidanceParams
-from .paths import Circle, Line, PathFunction
+from eaplan_drake.paths import Circle, Line, PathFunction
+
+if typing.TYPE_CHECKING:  # no import at run time: params imports this module to validate
+    from eaplan_drake.params import CoverageParams
 
 __all__ = [
     "APPROACH",
@@ -56,7 +60,12 @@ __all__ = [
     "StaticPlan",
     "ZamboniCoverage",
     "CoveragePolygon",
+    "CheckCoverageGeometry",
     "GroundSpeed",
+    "PathLeft",
+    "StageGeometry",
+    "StageRemaining",
+    "SurveyFraction",
     "StageTime",
     "CoverageTime",
     "MakeCoveragePlan",
@@ -122,6 +131,83 @@ class Stage:
         t = self.path.tangent(self.trigger)
         return t / np.linalg.norm(t)
 
+    @functools.cached_property
+    def geometry(self) -> "StageGeometry":
+        """The numbers the per-step tests need, as plain floats (computed once per stage)."""
+        tx, ty = (float(v) for v in self.trigger)
+        ux, uy = (float(v) for v in self.TriggerTangent())
+        if self.path.is_circle:
+            ox, oy = (float(v) for v in self.path.center)
+            radius = float(self.path.radius)
+            ccw = (self.path.s < 0) == (self.path.a > 0)
+            angle = math.atan2(ty - oy, tx - ox)
+        else:
+            ox = oy = radius = angle = 0.0
+            ccw = False
+        return StageGeometry(
+            tx, ty, ux, uy, self.path.is_circle, ox, oy, radius, ccw, angle, float(self.length)
+        )
+
+    @functools.cached_property
+    def descriptor(self) -> np.ndarray:
+        """The path descriptor ``[a, b_x, b_y, c, s, k_e]`` (read-only array)."""
+        d = self.path.descriptor()
+        d.flags.writeable = False
+        return d
+
+
+class StageGeometry(typing.NamedTuple):
+    """A stage's triggering geometry as floats: trigger p_Γ = (tx, ty) [m], unit direction of
+    travel t̂_Γ = (ux, uy) there, and for a circle its centre o = (ox, oy) [m], radius [m],
+    direction (ccw) and the angle of p_Γ about o [rad]; ``length`` the stage's length [m]."""
+
+    tx: float
+    ty: float
+    ux: float
+    uy: float
+    is_circle: bool
+    ox: float
+    oy: float
+    radius: float
+    ccw: bool
+    trigger_angle: float
+    length: float
+
+
+_TWO_PI = 2.0 * math.pi
+
+
+def PathLeft(stage: Stage, position=None) -> float:
+    """Path length [m] left on ``stage`` from ``position`` to its triggering point, at most the
+    stage's length (all of it when ``position`` is None): on a line the distance to p_Γ along
+    t̂_Γ (≥ 0), on a circle R times the angle from p to p_Γ in the direction of travel."""
+    g = stage.geometry
+    if position is None:
+        return g.length
+    px, py = position[0], position[1]
+    if g.is_circle:
+        a_p = math.atan2(py - g.oy, px - g.ox)
+        d = (g.trigger_angle - a_p) if g.ccw else (a_p - g.trigger_angle)
+        return min(g.length, g.radius * (d % _TWO_PI))
+    return min(g.length, max(0.0, (g.tx - px) * g.ux + (g.ty - py) * g.uy))
+
+
+def StageRemaining(stage: Stage, position=None) -> float:
+    """Survey length [m] left on ``stage`` from ``position`` (:func:`PathLeft`; 0 for the
+    approach, which is not part of the survey)."""
+    if stage.primitive == APPROACH:
+        return 0.0
+    return PathLeft(stage, position)
+
+
+def SurveyFraction(stage: Stage, position, rest_length: float, total_length: float) -> float:
+    """Fraction [0, 1] of the survey still to fly: (L_rest + L_stage(p)) / L_total with L_rest
+    [m] the survey length after ``stage``, L_stage(p) = :func:`StageRemaining` and L_total [m]
+    the survey length of the whole plan (0 when L_total ≤ 0)."""
+    if total_length <= 0.0:
+        return 0.0
+    return min(1.0, max(0.0, (rest_length + StageRemaining(stage, position)) / total_length))
+
 
 def ArcAngle(path: PathFunction, start, end) -> float:
     """Angle [rad] swept on circle ``path`` from ``start`` to ``end`` in its direction of travel,
@@ -185,26 +271,89 @@ def StageTime(stage: Stage, airspeed: float, wind=(0.0, 0.0)) -> float:
     return float(np.sum(stage.length / n / vg))
 
 
+def _Memoized(maxsize: int):
+    """Caches a pure method per instance (LRU of ``maxsize`` entries, positional hashable
+    arguments). The cache lives in the instance's ``__dict__`` under ``_memo_<name>`` and is left
+    out when the instance is pickled or copied (:meth:`PlanSource.__getstate__`)."""
+
+    def decorate(method):
+        key = "_memo_" + method.__name__
+
+        @functools.wraps(method)
+        def wrapper(self, *args):
+            cached = self.__dict__.get(key)
+            if cached is None:
+                cached = functools.lru_cache(maxsize)(functools.partial(method, self))
+                self.__dict__[key] = cached
+            return cached(*args)
+
+        return wrapper
+
+    return decorate
+
+
 class PlanSource:
     """A plan as a function of the path parameter c1: the stages at c1, and the stages after a
-    given stage when c1 changes in flight. Subclasses implement :meth:`Stages` and
-    :meth:`StagesAfter`; results are cached per argument (the methods are pure)."""
+    given stage when c1 changes in flight. Subclasses call ``PlanSource.__init__`` and implement
+    :meth:`_Stages` and :meth:`_StagesAfter`; the public methods cache their results per argument
+    (the methods are pure). A plan pickles as its definition (the caches are left out).
 
-    c1_bounds: tuple[float, float] = (0.0, 0.0)
-    """Admissible [c̲1, c̄1] [m²]."""
-    initial_c1: float | None = None
-    """c1 of the initial plan [m²] (None: the upper bound); the sequencer starts with it."""
-    airspeed: float = 15.0
-    """v_a [m/s] used by :meth:`CoverageTimeBounds` when none is given."""
+    Args:
+        c1_bounds: admissible [c̲1, c̄1] [m²].
+        initial_c1: c1 of the initial plan [m²]; the sequencer starts with it.
+        airspeed: v_a [m/s] the plan is flown at (:meth:`CoverageTimeBounds`, the sequencer's
+            remaining time).
+    """
+
+    def __init__(self, c1_bounds, *, initial_c1: float, airspeed: float):
+        name = type(self).__name__
+        try:
+            lo, hi = (float(v) for v in c1_bounds)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"{name}.c1_bounds: need two numbers [m²], got {c1_bounds!r}"
+            ) from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+            raise ValueError(f"{name}.c1_bounds: need finite lower <= upper, got {c1_bounds!r}")
+        self.c1_bounds = (lo, hi)
+        v = float(airspeed) if isinstance(airspeed, int | float) else math.nan
+        if not (math.isfinite(v) and v > 0.0):
+            raise ValueError(f"{name}.airspeed: must be a finite number > 0 m/s, got {airspeed!r}")
+        self.airspeed = v
+        try:
+            self.initial_c1 = self.CheckC1(float(initial_c1))
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{name}.initial_c1: {e}") from None
+
+    def __getstate__(self):
+        return {k: v for k, v in self.__dict__.items() if not k.startswith("_memo_")}
+
+    def _Stages(self, c1: float) -> tuple[Stage, ...]:
+        """The whole plan at c1 (c1 already checked)."""
+        raise NotImplementedError
+
+    def _StagesAfter(self, index: int, anchor: tuple[float, ...], c1: float) -> tuple[Stage, ...]:
+        """The stages after stage ``index`` with ``anchor`` at c1 (arguments already checked)."""
+        raise NotImplementedError
 
     def Stages(self, c1: float) -> tuple[Stage, ...]:
         """The whole plan at c1."""
-        raise NotImplementedError
+        return self._CachedStages(self.CheckC1(c1))
 
     def StagesAfter(self, index: int, anchor: tuple[float, ...], c1: float) -> tuple[Stage, ...]:
         """The stages that follow stage ``index`` (with its ``anchor``) when the rest of the plan
         is flown with c1; the stage itself is kept as it is."""
-        raise NotImplementedError
+        return self._CachedStagesAfter(
+            int(index), tuple(float(a) for a in anchor), self.CheckC1(c1)
+        )
+
+    @_Memoized(64)
+    def _CachedStages(self, c1: float) -> tuple[Stage, ...]:
+        return tuple(self._Stages(c1))
+
+    @_Memoized(512)
+    def _CachedStagesAfter(self, index: int, anchor: tuple, c1: float) -> tuple[Stage, ...]:
+        return tuple(self._StagesAfter(index, anchor, c1))
 
     # -- derived ---------------------------------------------------------------------------------
 
@@ -243,7 +392,25 @@ class PlanSource:
         when the rest of the plan is flown with c1, at ``airspeed`` [m/s] in constant ``wind``
         [m/s]: the staircase t(c1) of whole repetitions, not the Eq. 10 line."""
         c1 = min(max(float(c1), self.c1_bounds[0]), self.c1_bounds[1])
-        return float(sum(StageTime(s, airspeed, wind) for s in self.StagesAfter(index, anchor, c1)))
+        w = np.asarray(wind, dtype=float).reshape(2)
+        key = (int(index), tuple(float(a) for a in anchor), c1, float(airspeed))
+        return self._CachedTimeAfter(*key, (float(w[0]), float(w[1])))
+
+    @_Memoized(1024)
+    def _CachedTimeAfter(self, index, anchor, c1, airspeed, wind) -> float:
+        w = np.array(wind)
+        return float(sum(StageTime(s, airspeed, w) for s in self.StagesAfter(index, anchor, c1)))
+
+    def SurveyLengthAfter(self, index: int, anchor: tuple[float, ...], c1: float) -> float:
+        """Survey length [m] of the stages after stage ``index`` (with its ``anchor``) when the
+        rest of the plan is flown with c1 (approach excluded)."""
+        return self._CachedSurveyLengthAfter(
+            int(index), tuple(float(a) for a in anchor), self.CheckC1(c1)
+        )
+
+    @_Memoized(512)
+    def _CachedSurveyLengthAfter(self, index, anchor, c1) -> float:
+        return _SurveyLength(self.StagesAfter(index, anchor, c1))
 
     def CoverageTimeBounds(
         self, c1_bounds=None, airspeed: float | None = None, wind=(0.0, 0.0)
@@ -268,23 +435,13 @@ class PlanSource:
         ``position`` on stage ``index`` (its entry when None) over the survey length of the whole
         plan at c1 (default: the c1 of the last stage, i.e. the one the rest is flown with)."""
         c1 = stages[-1].c1 if c1 is None else c1
-        total = self.SurveyLength(c1)
-        rest = _SurveyLength(stages[index + 1 :])
-        rest += StageRemaining(stages[index], position)
-        return min(1.0, max(0.0, rest / total)) if total > 0 else 0.0
+        return SurveyFraction(
+            stages[index], position, _SurveyLength(stages[index + 1 :]), self.SurveyLength(c1)
+        )
 
 
 def _SurveyLength(stages) -> float:
     return float(sum(s.length for s in stages if s.primitive != APPROACH))
-
-
-def StageRemaining(stage: Stage, position=None) -> float:
-    """Survey length [m] left on ``stage`` from ``position`` (0 for the approach)."""
-    if stage.primitive == APPROACH:
-        return 0.0
-    if position is None:
-        return stage.length
-    return min(stage.length, PathLength(stage.path, position, stage.trigger))
 
 
 def ScalingFactors(c1_bounds, times) -> tuple[np.ndarray, np.ndarray]:
@@ -300,23 +457,23 @@ def ScalingFactors(c1_bounds, times) -> tuple[np.ndarray, np.ndarray]:
 
 
 class StaticPlan(PlanSource):
-    """A fixed list of stages (re-planning changes nothing)."""
+    """A fixed list of stages (re-planning changes nothing), flown at ``airspeed`` [m/s]."""
 
-    def __init__(self, stages):
+    def __init__(self, stages, *, airspeed: float):
         stages = tuple(stages)
         if not stages:
             raise ValueError("StaticPlan: needs at least one stage")
         self._stages = stages
         c1 = stages[0].c1
-        self.c1_bounds = (c1, c1)
+        super().__init__((c1, c1), initial_c1=c1, airspeed=airspeed)
 
     def CheckC1(self, c1: float) -> float:
         return self.c1_bounds[0]
 
-    def Stages(self, c1: float = 0.0) -> tuple[Stage, ...]:
+    def _Stages(self, c1: float) -> tuple[Stage, ...]:
         return self._stages
 
-    def StagesAfter(self, index, anchor, c1) -> tuple[Stage, ...]:
+    def _StagesAfter(self, index, anchor, c1) -> tuple[Stage, ...]:
         return self._stages[int(index) + 1 :]
 
 
@@ -473,49 +630,62 @@ class CoveragePolygon:
 # -- Alg. 1 -------------------------------------------------------------------------------------
 
 
+def CheckCoverageGeometry(params: "CoverageParams", key: str = "coverage") -> CoveragePolygon:
+    """Checks the geometry of a Zamboni-like survey (positive x_d, r, r_min with r_min ≤ r; a
+    convex, non-degenerate polygon; a line edge on its boundary; room for one repetition,
+    width ≥ 2 r1 + x_d) and returns the polygon; ValueError naming ``key.<field>`` otherwise."""
+    for name in ("swath_spacing", "turning_radius", "min_turning_radius"):
+        v = getattr(params, name)
+        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{key}.{name}: must be a finite number > 0 m, got {v!r}")
+    r, r_min, x_d = (
+        float(params.turning_radius),
+        float(params.min_turning_radius),
+        float(params.swath_spacing),
+    )
+    if r_min > r:
+        raise ValueError(
+            f"{key}.min_turning_radius: r_min = {r_min:g} m must be <= turning_radius r = {r:g} m"
+        )
+    polygon = CoveragePolygon(params.polygon, params.line_edge, key)
+    r1 = r + x_d / 2.0
+    need = 2.0 * r1 + x_d
+    if polygon.width < need - 1e-9:
+        raise ValueError(
+            f"{key}.polygon: too small for one repetition: its width across the lines "
+            f"(normal to edge {params.line_edge}) is {polygon.width:g} m, the Zamboni-like motion "
+            f"needs >= 2 r1 + x_d = {need:g} m (r1 = r + x_d/2 = {r1:g} m)"
+        )
+    return polygon
+
+
 class ZamboniCoverage(PlanSource):
     """The Zamboni-like coverage plan of paper 003 Alg. 1 as a function of c1 (see module doc).
 
-    ``start`` is the aircraft's start position [m] (it sets the approach stage's length);
-    ``k_e`` the field gain put into every path descriptor [1/m] (default GuidanceParams.k_e).
+    Args:
+        params: the survey's :class:`~eaplan_drake.params.CoverageParams` (copied).
+        start: the aircraft's start position [m] (it sets the approach stage's length).
+        airspeed: v_a [m/s] the plan is flown at.
+        initial_c1: c1 of the initial plan [m²], in [r_min² − r², 0].
+        k_e: the field gain put into every path descriptor [1/m].
     """
 
-    def __init__(self, params: CoverageParams | None = None, start=(-100.0, 220.0), k_e=None):
-        params = CoverageParams() if params is None else params
+    def __init__(self, params: "CoverageParams", *, start, airspeed: float, initial_c1, k_e):
         key = "coverage"
-        for name in ("swath_spacing", "turning_radius", "min_turning_radius"):
-            v = getattr(params, name)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{key}.{name}: must be a finite number > 0 m, got {v!r}")
+        self.polygon = CheckCoverageGeometry(params, key)
+        self.params = copy.deepcopy(params)
         self.r = float(params.turning_radius)
         self.r_min = float(params.min_turning_radius)
         self.x_d = float(params.swath_spacing)
-        if self.r_min > self.r:
-            raise ValueError(
-                f"{key}.min_turning_radius: r_min = {self.r_min:g} m must be <= turning_radius "
-                f"r = {self.r:g} m"
-            )
         self.r1 = self.r + self.x_d / 2.0
-        self.c1_bounds = (self.r_min**2 - self.r**2, 0.0)
-        self.k_e = GuidanceParams().k_e if k_e is None else float(k_e)
+        self.k_e = float(k_e) if isinstance(k_e, int | float) else math.nan
         if not (math.isfinite(self.k_e) and self.k_e > 0):
             raise ValueError(f"ZamboniCoverage.k_e: must be > 0 1/m, got {k_e!r}")
-        self.start = np.asarray(start, dtype=float).reshape(2)
+        self.start = np.array(start, dtype=float).reshape(2)
         if not np.all(np.isfinite(self.start)):
             raise ValueError(f"ZamboniCoverage.start: must be a finite [x, y] in m, got {start!r}")
-        self.polygon = CoveragePolygon(params.polygon, params.line_edge, key)
-        self.params = params
-        W = self.polygon.width
-        need = 2.0 * self.r1 + self.x_d
-        if W < need - 1e-9:
-            raise ValueError(
-                f"{key}.polygon: too small for one repetition: its width across the lines "
-                f"(normal to edge {params.line_edge}) is {W:g} m, the Zamboni-like motion needs "
-                f">= 2 r1 + x_d = {need:g} m (r1 = r + x_d/2 = {self.r1:g} m)"
-            )
-        self._last_eta = W - self.x_d / 2.0
-        self._cache_stages = functools.lru_cache(maxsize=64)(self._Stages)
-        self._cache_after = functools.lru_cache(maxsize=512)(self._StagesAfter)
+        self._last_eta = self.polygon.width - self.x_d / 2.0
+        super().__init__((self.r_min**2 - self.r**2, 0.0), initial_c1=initial_c1, airspeed=airspeed)
 
     # -- geometry helpers --------------------------------------------------------------------------
 
@@ -596,6 +766,7 @@ class ZamboniCoverage(PlanSource):
         return stages
 
     def _Stages(self, c1: float) -> tuple[Stage, ...]:
+        """The whole plan at c1 (Alg. 1): approach, then the repetitions."""
         poly = self.polygon
         eta_d0 = self.x_d / 2.0
         r2 = TurningRadius2(c1, self.r)
@@ -630,41 +801,31 @@ class ZamboniCoverage(PlanSource):
         stages = self._Build(self._Reps(k, eta_d, c1), None)
         return tuple(s for s in stages if s.index > index)
 
-    # -- PlanSource ----------------------------------------------------------------------------
-
-    def Stages(self, c1: float) -> tuple[Stage, ...]:
-        """The whole plan at c1 (Alg. 1): approach, then the repetitions."""
-        return self._cache_stages(self.CheckC1(c1))
-
-    def StagesAfter(self, index: int, anchor: tuple[float, ...], c1: float) -> tuple[Stage, ...]:
-        return self._cache_after(int(index), tuple(float(a) for a in anchor), self.CheckC1(c1))
-
 
 def CoverageTime(
-    params: CoverageParams | None,
+    params: "CoverageParams",
     c1: float,
     airspeed: float,
     wind=(0.0, 0.0),
-    start=(-100.0, 220.0),
+    *,
+    start,
     include_approach: bool = True,
 ) -> float:
-    """t(c1) [s] of the Zamboni-like plan of ``params`` (see :class:`ZamboniCoverage`)."""
-    return ZamboniCoverage(params, start=start).CoverageTime(c1, airspeed, wind, include_approach)
+    """t(c1) [s] of the Zamboni-like plan of ``params`` flown from ``start`` [m] at ``airspeed``
+    [m/s] in constant ``wind`` [m/s] (see :class:`ZamboniCoverage`; the field gain k_e does not
+    enter the time, 1 is passed)."""
+    plan = ZamboniCoverage(params, start=start, airspeed=airspeed, initial_c1=c1, k_e=1.0)
+    return plan.CoverageTime(c1, airspeed, wind, include_approach)
 
 
-def MakeCoveragePlan(
-    coverage: CoverageParams | None = None, vehicle=None, c1: float = 0.0, k_e=None
-) -> ZamboniCoverage:
+def MakeCoveragePlan(coverage: "CoverageParams", vehicle, *, c1: float, k_e: float):
     """The Zamboni-like plan of a scenario: ``coverage`` geometry, start position and airspeed from
-    ``vehicle`` (:class:`~eaplan_drake.params.VehicleParams`, default the reference), initial c1
-    [m²] (checked against [r_min² − r², 0]) and field gain ``k_e`` [1/m]."""
-    from .params import VehicleParams
-
-    vehicle = VehicleParams() if vehicle is None else vehicle
-    plan = ZamboniCoverage(coverage, start=vehicle.initial_position, k_e=k_e)
-    try:
-        plan.initial_c1 = plan.CheckC1(c1)
-    except ValueError as e:
-        raise ValueError(f"coverage: initial {e}") from None
-    plan.airspeed = float(vehicle.airspeed)
-    return plan
+    ``vehicle`` (:class:`~eaplan_drake.params.VehicleParams`), initial c1 [m²] (checked against
+    [r_min² − r², 0]) and field gain ``k_e`` [1/m] (``GuidanceParams.k_e``)."""
+    return ZamboniCoverage(
+        coverage,
+        start=vehicle.initial_position,
+        airspeed=vehicle.airspeed,
+        initial_c1=c1,
+        k_e=k_e,
+    )

@@ -126,8 +126,8 @@ def AddGuidedAircraft(
             initial_c1=initial_path_parameter,
             trigger_radius=scenario.coverage.trigger_radius,
             initial_period=scenario.energy_model.initial_period,
-            airspeed=scenario.vehicle.airspeed,
             wind=w,
+            time_step=scenario.simulation.max_step,
             path_parameter_grid=scenario.planner.PathParameterGrid(),
         ),
     )

@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from eaplan_drake.coverage import CheckCoverageGeometry
+
 __all__ = [
     "BatteryFault",
     "BatteryParams",
@@ -253,17 +255,14 @@ class CoverageParams:
         )
         _nonnegative(self.trigger_radius, f"{key}.trigger_radius")
         # Geometry (convexity, degenerate polygons, line edge, size for one repetition).
-        from .coverage import CoveragePolygon, ZamboniCoverage
-
         try:
-            width = CoveragePolygon(self.polygon, self.line_edge, key).width
+            width = CheckCoverageGeometry(self, key).width
             _check(
                 width / self.swath_spacing <= MAX_SURVEY_LINES,
                 f"{key}.polygon",
                 f"the field is {width:g} m across the lines, more than {MAX_SURVEY_LINES} "
                 f"lines of swath_spacing = {self.swath_spacing:g} m (bounds the plan's size)",
             )
-            ZamboniCoverage(self)
         except (ValueError, RuntimeError, OverflowError) as e:
             raise ScenarioError(str(e).splitlines()[0] if str(e) else f"{key}: {e!r}") from None
 

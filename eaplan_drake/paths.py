@@ -47,7 +47,8 @@ class PathFunction:
     b: tuple[float, float]
     c: float
     s: float = 1.0
-    k_e: float = 0.02
+    k_e: float = dc.field(kw_only=True)
+    """Field gain k_e [1/m] (``GuidanceParams.k_e`` of the scenario; no default here)."""
 
     def __post_init__(self):
         values = [self.a, *self.b, self.c, self.s, self.k_e]
@@ -121,8 +122,9 @@ class PathFunction:
         )
 
 
-def Line(point, normal, s: float = 1.0, k_e: float = 0.02) -> PathFunction:
-    """The line through ``point`` [m] with normal ``normal`` (normalised here): φ = nᵀ(p − p0)."""
+def Line(point, normal, s: float = 1.0, *, k_e: float) -> PathFunction:
+    """The line through ``point`` [m] with normal ``normal`` (normalised here): φ = nᵀ(p − p0);
+    direction s = ±1, field gain ``k_e`` [1/m]."""
     n = np.asarray(normal, dtype=float)
     norm = float(np.hypot(*n))
     if not np.isfinite(norm) or norm == 0.0:
@@ -132,8 +134,9 @@ def Line(point, normal, s: float = 1.0, k_e: float = 0.02) -> PathFunction:
     return PathFunction(a=0.0, b=(float(n[0]), float(n[1])), c=-float(n @ p0), s=s, k_e=k_e)
 
 
-def Circle(center, radius: float, s: float = 1.0, k_e: float = 0.02) -> PathFunction:
-    """The circle of ``radius`` [m] around ``center`` [m]: φ = (‖p − o‖² − R²) / (2R)."""
+def Circle(center, radius: float, s: float = 1.0, *, k_e: float) -> PathFunction:
+    """The circle of ``radius`` [m] around ``center`` [m]: φ = (‖p − o‖² − R²) / (2R);
+    direction s = ±1, field gain ``k_e`` [1/m]."""
     if not np.isfinite(radius) or radius <= 0.0:
         raise ValueError(f"Circle: radius must be > 0 m, got {radius}")
     o = np.asarray(center, dtype=float)

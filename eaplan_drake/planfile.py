@@ -15,36 +15,38 @@ this gives ``1;x+115`` travelling towards −y and ``0;x-35`` towards +y, as the
 
 Expressions are parsed by a small recursive-descent parser over a whitelisted grammar — numbers,
 ``x``, ``y``, ``c1``, ``+ - * / ^``, unary minus, ``sqrt( )`` and parentheses — never ``eval``.
-Each path expression must be a line or a circle: φ = a(x² + y²) + b_x x + b_y y + c. This is
-checked by fitting the general quadratic to the expression at 16 points around the triggering
-point and requiring a zero residual, equal x² and y² and no xy coefficient; anything else is
-rejected. The path function is then normalised (‖∇φ‖ = 1 on the path, same zero set, direction
-and sign). An error names the file, line and column.
+Each path expression must be a line or a circle: φ = a(x² + y²) + b_x x + b_y y + c. The
+expression is evaluated at the stage's c1 with x, y as ``pydrake.symbolic`` variables (its parts
+free of x, y numerically) and its exact coefficients read from ``pydrake.symbolic.Polynomial``:
+degree ≤ 2, equal x² and y² coefficients and no xy term; anything else (also sqrt, division or a
+non-integer power of x or y) is rejected. The path function is then normalised (‖∇φ‖ = 1 on the
+path, same zero set, direction and sign). An error names the file, line and column.
 
 Gains: the authors' k_e (0.0003 for circles, 0.05 for lines) are tuned for their un-normalised φ
 (a circle's φ grows like 2Rδ for a distance δ off it). Our guidance works on normalised φ, so every
-stage gets our k_e (``k_e=`` argument, default ``GuidanceParams().k_e``); the file's value is
-kept in :attr:`PlanStageSpec.file_k_e` for reference.
+stage gets our k_e (``k_e=`` argument, the scenario's ``GuidanceParams.k_e``); the file's value
+is kept in :attr:`PlanStageSpec.file_k_e` for reference.
 """
 
 import dataclasses as dc
-import functools
 import math
 import re
 from pathlib import Path
 
 import numpy as np
+from pydrake import symbolic as sym
 
-from .coverage import (
+from eaplan_drake.coverage import (
     ANCHOR_SIZE,
     APPROACH,
     NUM_PRIMITIVES,
     PathLength,
     PlanSource,
     Stage,
+    ZamboniCoverage,
 )
-from .params import GuidanceParams, ReadTextFile
-from .paths import PathFunction
+from eaplan_drake.params import ReadTextFile
+from eaplan_drake.paths import PathFunction
 
 __all__ = [
     "PlanFileError",
@@ -54,6 +56,7 @@ __all__ = [
     "PlanFile",
     "ReadPlanFile",
     "LoadPlanFile",
+    "MakePlanSource",
     "REFERENCE_PLAN",
 ]
 
@@ -284,60 +287,64 @@ def ParseExpression(text: str, col0: int = 1) -> Expression:
 
 # -- quadratic form -----------------------------------------------------------------------------
 
-_OFFSETS = np.array(
-    [
-        [0.0, 0.0],
-        [1.0, 0.0],
-        [0.0, 1.0],
-        [-1.0, 0.0],
-        [0.0, -1.0],
-        [1.0, 1.0],
-        [-1.0, 1.0],
-        [1.0, -1.0],
-        [-1.0, -1.0],
-        [2.0, 0.5],
-        [0.5, -2.0],
-        [-1.5, 2.0],
-        [-2.0, -0.5],
-        [0.3, 1.7],
-        [1.3, -0.7],
-        [-0.6, -1.9],
-    ]
-)
 
-
-def QuadraticForm(f, center, scale: float = 100.0) -> tuple[float, float, float, float]:
-    """(a, b_x, b_y, c) with f(x, y) = a (x² + y²) + b_x x + b_y y + c, identified from f at 16
-    points within ``scale`` [m] of ``center``; ValueError if f is not of that form."""
-    q = np.asarray(center, dtype=float)
-    P = q + scale * _OFFSETS
-    values = np.array([f(px, py) for px, py in P])
-    d = (P - q) / scale
-    M = np.column_stack(
-        [d[:, 0] ** 2, d[:, 1] ** 2, d[:, 0] * d[:, 1], d[:, 0], d[:, 1], 0 * d[:, 0] + 1]
+def _Polynomial(node, c1: float, x, y):
+    """The expression tree as a ``pydrake.symbolic.Expression`` in the variables x, y at c1:
+    sub-expressions free of x and y are evaluated numerically (with :func:`_Eval`'s domain
+    checks); in x and y only +, −, ·, division by a constant and a constant non-negative integer
+    power are allowed (a polynomial), anything else is not a line or a circle."""
+    if not _Uses(node, set()) & {"x", "y"}:
+        return sym.Expression(_Eval(node, {"x": 0.0, "y": 0.0, "c1": c1}))
+    kind, col = node[0], node[1]
+    if kind == "var":
+        return x if node[2] == "x" else y
+    if kind == "neg":
+        return -_Polynomial(node[2], c1, x, y)
+    if kind in ("add", "sub", "mul"):
+        a, b = _Polynomial(node[2], c1, x, y), _Polynomial(node[3], c1, x, y)
+        return a + b if kind == "add" else a - b if kind == "sub" else a * b
+    if kind in ("div", "pow") and not _Uses(node[3], set()) & {"x", "y"}:
+        v = _Eval(node[3], {"x": 0.0, "y": 0.0, "c1": c1})
+        if kind == "div" and v != 0.0:
+            return _Polynomial(node[2], c1, x, y) / v
+        if kind == "pow" and v == int(v) and 0 <= v <= 2:
+            return _Polynomial(node[2], c1, x, y) ** int(v)
+    what = {"sqrt": "sqrt", "div": "division", "pow": "power"}[kind]
+    raise _ExprError(
+        col, f"not a line or a circle: a {what} of x or y (need a polynomial of degree <= 2)"
     )
-    coef, *_ = np.linalg.lstsq(M, values, rcond=None)
-    size = float(np.max(np.abs(values))) + 1e-300
-    residual = float(np.max(np.abs(M @ coef - values)))
-    if residual > 1e-9 * size:
-        raise ValueError(
-            "not a line or a circle: the expression is not a polynomial of degree <= 2 in x, y "
-            f"(fit residual {residual:.3g})"
-        )
-    axx, ayy, axy, bx, by, c0 = coef
-    if abs(axy) > 1e-9 * size or abs(axx - ayy) > 1e-9 * size:
+
+
+def QuadraticForm(expression: Expression, c1: float = 0.0) -> tuple[float, float, float, float]:
+    """(a, b_x, b_y, c), exactly, with ``expression``(x, y, c1) = a (x² + y²) + b_x x + b_y y + c
+    (the coefficients of ``pydrake.symbolic.Polynomial`` in x, y); ValueError naming the column if
+    the expression is not of that form at ``c1`` [m²]."""
+    x, y = sym.Variable("x"), sym.Variable("y")
+    try:
+        e = _Polynomial(expression.tree, float(c1), x, y)
+    except _ExprError as err:
+        raise ValueError(f"column {err.col}: {err.message}") from None
+    coefficients = {}
+    for monomial, value in (
+        sym.Polynomial(e, sym.Variables([x, y])).monomial_to_coefficient_map().items()
+    ):
+        degree = (monomial.degree(x), monomial.degree(y))
+        if sum(degree) > 2:
+            raise ValueError("not a line or a circle: a polynomial of degree > 2 in x, y")
+        coefficients[degree] = float(value.Evaluate())
+    axx, ayy = coefficients.get((2, 0), 0.0), coefficients.get((0, 2), 0.0)
+    axy = coefficients.get((1, 1), 0.0)
+    if axy != 0.0 or axx != ayy:
         raise ValueError(
             "not a line or a circle: need equal x² and y² coefficients and no x·y term "
-            f"(got {axx / scale**2:.6g} x², {ayy / scale**2:.6g} y², {axy / scale**2:.6g} x·y)"
+            f"(got {axx:.6g} x², {ayy:.6g} y², {axy:.6g} x·y)"
         )
-    A = 0.5 * (axx + ayy) / scale**2
-    B = np.array([bx, by]) / scale
-    if abs(A) * scale**2 <= 1e-12 * size:
-        A = 0.0
-    a = A
-    b = B - 2.0 * A * q
-    c = A * float(q @ q) - float(B @ q) + c0
-    return float(a), float(b[0]), float(b[1]), float(c)
+    return (
+        axx,
+        coefficients.get((1, 0), 0.0),
+        coefficients.get((0, 1), 0.0),
+        coefficients.get((0, 0), 0.0),
+    )
 
 
 # -- plan files ---------------------------------------------------------------------------------
@@ -369,9 +376,20 @@ class PlanFile(PlanSource):
     """A plan read from a ``.pln`` file, as a function of c1 (see module doc).
 
     Stage i is primitive −1 (approach) for i < ``approach_stages``, then
-    (i − approach_stages) mod ``num_primitives``. ``start`` [m] is where the aircraft starts (it
-    sets the first stage's length). Re-planning with a new c1 re-evaluates the stages after the
-    current one from the file (the authors' semantics).
+    (i − approach_stages) mod ``num_primitives``. Re-planning with a new c1 re-evaluates the stages
+    after the current one from the file (the authors' semantics).
+
+    Args:
+        specs, shift: as :func:`ParsePlanText` returns them.
+        source: the file's name in error messages.
+        k_e: field gain of every stage [1/m].
+        start: where the aircraft starts [m] (it sets the first stage's length).
+        airspeed: v_a [m/s] the plan is flown at.
+        initial_c1: c1 of the initial plan [m²], within ``c1_bounds``.
+        c1_bounds: [c̲1, c̄1] [m²] over which the file's expressions are evaluated (both ends are
+            checked here; errors name the line).
+        final_point: triggering point (x, y) [m] of a last stage that has none in the file.
+        num_primitives, approach_stages: the stage numbering above.
     """
 
     def __init__(
@@ -380,10 +398,12 @@ class PlanFile(PlanSource):
         shift=None,
         *,
         source: str = "<plan>",
-        k_e=None,
-        start=(-100.0, 220.0),
+        k_e: float,
+        start,
+        airspeed: float,
+        initial_c1: float,
+        c1_bounds,
         final_point=None,
-        c1_bounds=(-1000.0, 0.0),
         num_primitives: int = NUM_PRIMITIVES,
         approach_stages: int = 1,
     ):
@@ -392,10 +412,12 @@ class PlanFile(PlanSource):
         self.source = source
         if not self.specs:
             raise PlanFileError(f"{source}: no stages in the plan")
-        self.k_e = GuidanceParams().k_e if k_e is None else float(k_e)
+        self.k_e = float(k_e) if isinstance(k_e, int | float) else math.nan
         if not (math.isfinite(self.k_e) and self.k_e > 0):
             raise ValueError(f"PlanFile.k_e: must be > 0 1/m, got {k_e!r}")
-        self.start = np.asarray(start, dtype=float).reshape(2)
+        self.start = np.array(start, dtype=float).reshape(2)
+        if not np.all(np.isfinite(self.start)):
+            raise ValueError(f"PlanFile.start: must be a finite [x, y] in m, got {start!r}")
         self.final_point = None if final_point is None else tuple(float(v) for v in final_point)
         for spec in self.specs[:-1]:
             if spec.trigger is None:
@@ -405,10 +427,6 @@ class PlanFile(PlanSource):
                 f"{source}:{self.specs[-1].line}: the last stage has no triggering (final) point; "
                 "pass final_point=(x, y)"
             )
-        lo, hi = (float(v) for v in c1_bounds)
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
-            raise ValueError(f"PlanFile.c1_bounds: need finite lower <= upper, got {c1_bounds}")
-        self.c1_bounds = (lo, hi)
         if not (isinstance(num_primitives, int) and num_primitives >= 1):
             raise ValueError(
                 f"PlanFile.num_primitives: must be an integer >= 1, got {num_primitives}"
@@ -420,10 +438,10 @@ class PlanFile(PlanSource):
             )
         self.num_primitives = num_primitives
         self.approach_stages = approach_stages
-        self._cache = functools.lru_cache(maxsize=64)(self._Stages)
+        super().__init__(c1_bounds, initial_c1=initial_c1, airspeed=airspeed)
         # Both ends of the c1 range must give a valid plan (errors name the line).
-        for c1 in {lo, hi}:
-            self._cache(c1)
+        for c1 in set(self.c1_bounds):
+            self.Stages(c1)
 
     def _Primitive(self, i: int) -> int:
         if i < self.approach_stages:
@@ -446,7 +464,7 @@ class PlanFile(PlanSource):
             try:
                 if not spec.path.variables & {"x", "y"}:
                     raise ValueError("not a line or a circle: it does not depend on x or y")
-                a, bx, by, c = QuadraticForm(lambda x, y, e=spec.path: e(x, y, c1), trig)
+                a, bx, by, c = QuadraticForm(spec.path, c1)
                 path = PathFunction(a=a, b=(bx, by), c=c, s=spec.s, k_e=self.k_e).normalised()
                 if path.is_circle:
                     path.radius  # noqa: B018  (raises if no real circle)
@@ -471,10 +489,7 @@ class PlanFile(PlanSource):
             entry = trig
         return tuple(stages)
 
-    def Stages(self, c1: float) -> tuple[Stage, ...]:
-        return self._cache(self.CheckC1(c1))
-
-    def StagesAfter(self, index: int, anchor, c1: float) -> tuple[Stage, ...]:
+    def _StagesAfter(self, index: int, anchor, c1: float) -> tuple[Stage, ...]:
         return self.Stages(c1)[int(index) + 1 :]
 
 
@@ -612,12 +627,9 @@ def ParsePlanText(text: str, source: str = "<plan>"):
 
 
 def ReadPlanFile(path_or_text=None, *, text: str | None = None, **kwargs) -> PlanFile:
-    """Reads a plan file (``path_or_text`` a path; or ``text=``) into a :class:`PlanFile`.
-
-    Keyword arguments go to :class:`PlanFile` (``k_e``, ``start``, ``final_point``,
-    ``c1_bounds``, ``num_primitives``, ``approach_stages``). Without arguments: the packaged
-    reference plan.
-    """
+    """Reads a plan file (``path_or_text`` a path, None for the packaged reference plan; or
+    ``text=``) into a :class:`PlanFile`; keyword arguments go to :class:`PlanFile` (``k_e``,
+    ``start``, ``airspeed``, ``initial_c1``, ``c1_bounds`` are required there)."""
     if text is None:
         path = Path(REFERENCE_PLAN if path_or_text is None else path_or_text)
         if not path.is_file():
@@ -634,18 +646,43 @@ def _ReadPlanText(path: Path) -> str:
 
 
 def LoadPlanFile(
-    name_or_path: str, vehicle=None, c1: float | None = None, k_e=None, **kwargs
+    name_or_path: str, vehicle, *, c1: float, k_e: float, c1_bounds, **kwargs
 ) -> PlanFile:
     """A scenario's plan file: ``"reference"`` (or ``"reference_plan"``) is the packaged authors'
-    plan, anything else a path. Start position and airspeed from ``vehicle`` (default the
-    reference :class:`~eaplan_drake.params.VehicleParams`), initial ``c1`` [m²] (default the upper
-    bound), ``k_e`` [1/m]; other keywords go to :class:`PlanFile`."""
-    from .params import VehicleParams
-
-    vehicle = VehicleParams() if vehicle is None else vehicle
+    plan, anything else a path. Start position and airspeed from ``vehicle``
+    (:class:`~eaplan_drake.params.VehicleParams`), initial ``c1`` [m²], ``k_e`` [1/m] and
+    ``c1_bounds`` [m²]; other keywords go to :class:`PlanFile`."""
     path = REFERENCE_PLAN if name_or_path in ("reference", "reference_plan") else name_or_path
-    kwargs.setdefault("start", vehicle.initial_position)
-    plan = ReadPlanFile(path, k_e=k_e, **kwargs)
-    plan.initial_c1 = plan.CheckC1(plan.c1_bounds[1] if c1 is None else c1)
-    plan.airspeed = float(vehicle.airspeed)
-    return plan
+    return ReadPlanFile(
+        path,
+        k_e=k_e,
+        start=vehicle.initial_position,
+        airspeed=vehicle.airspeed,
+        initial_c1=c1,
+        c1_bounds=c1_bounds,
+        **kwargs,
+    )
+
+
+def MakePlanSource(scenario, *, initial_c1: float) -> PlanSource:
+    """The plan source of ``scenario`` (a :class:`~eaplan_drake.params.Scenario`): its
+    ``coverage.plan_file`` (c1 over ``planner.path_parameter_bounds``) or else the generated
+    Zamboni-like coverage of ``coverage``; flown from ``vehicle.initial_position`` at
+    ``vehicle.airspeed`` with the field gain ``guidance.k_e``, starting with ``initial_c1`` [m²]
+    (:func:`~eaplan_drake.resolve.StartParameters`). Raises ValueError (or OSError for a file)."""
+    coverage, vehicle, k_e = scenario.coverage, scenario.vehicle, scenario.guidance.k_e
+    if coverage.plan_file:
+        return LoadPlanFile(
+            coverage.plan_file,
+            vehicle,
+            c1=initial_c1,
+            k_e=k_e,
+            c1_bounds=scenario.planner.path_parameter_bounds,
+        )
+    return ZamboniCoverage(
+        coverage,
+        start=vehicle.initial_position,
+        airspeed=vehicle.airspeed,
+        initial_c1=initial_c1,
+        k_e=k_e,
+    )

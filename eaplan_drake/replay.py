@@ -131,19 +131,11 @@ def _Flat(meshcat, path, outline_xy, z, rgba):
 
 
 def _Planned(scenario: Scenario):
-    from eaplan_drake.coverage import MakeCoveragePlan
-    from eaplan_drake.planfile import LoadPlanFile
+    from eaplan_drake.planfile import MakePlanSource
     from eaplan_drake.plots import StagePoints
 
     c1 = scenario.planner.initial_path_parameters[0]
-    if scenario.coverage.plan_file:
-        plan = LoadPlanFile(
-            scenario.coverage.plan_file, vehicle=scenario.vehicle, c1=c1, k_e=scenario.guidance.k_e
-        )
-    else:
-        plan = MakeCoveragePlan(
-            scenario.coverage, scenario.vehicle, c1=c1, k_e=scenario.guidance.k_e
-        )
+    plan = MakePlanSource(scenario, initial_c1=c1)
     return [StagePoints(s) for s in plan.Stages(c1)]
 
 

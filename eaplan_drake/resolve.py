@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.computation import ComputationTable, LoadComputationTable
-from eaplan_drake.coverage import MakeCoveragePlan, PlanSource
+from eaplan_drake.coverage import PlanSource
 from eaplan_drake.params import ResolveFilePaths, Scenario, ScenarioError
 from eaplan_drake.paths import PathFunction
-from eaplan_drake.planfile import LoadPlanFile, PlanFile
+from eaplan_drake.planfile import MakePlanSource, PlanFile
 from eaplan_drake.plant import MaxHeadingRate
 
 __all__ = [
@@ -144,19 +144,11 @@ def StartParameters(scenario: Scenario, table) -> tuple[float, list[float]]:
 
 def _Plan(scenario: Scenario, table: ComputationTable) -> PlanSource:
     c1_0, _ = StartParameters(scenario, table)
-    k_e = scenario.guidance.k_e
-    if scenario.coverage.plan_file:
-        key = "coverage.plan_file"
-        try:
-            return LoadPlanFile(
-                scenario.coverage.plan_file, vehicle=scenario.vehicle, c1=c1_0, k_e=k_e
-            )
-        except (ValueError, OSError, RecursionError) as e:
-            raise ScenarioError(f"{key}: {_OneLine(e)}") from None
+    key = "coverage.plan_file" if scenario.coverage.plan_file else "coverage"
     try:
-        return MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=c1_0, k_e=k_e)
-    except (ValueError, RuntimeError) as e:
-        raise ScenarioError(f"coverage: {_OneLine(e)}") from None
+        return MakePlanSource(scenario, initial_c1=c1_0)
+    except (ValueError, OSError, RecursionError, RuntimeError) as e:
+        raise ScenarioError(f"{key}: {_OneLine(e)}") from None
 
 
 def _CheckPlan(scenario: Scenario, plan: PlanSource) -> None:

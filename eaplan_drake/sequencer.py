@@ -26,80 +26,72 @@ finest coverage), over the survey length of the whole plan at c̄1. It measures 
 does not jump when c1 is re-planned (whole repetitions would make a ratio at the current c1 jump),
 and fraction · t(c1) estimates the remaining time at any c1 (paper 003 Alg. 2 l. 25).
 
-All of it lives in one discrete state vector (stage index, c1, entry times, period, the active
-stage's descriptor and trigger geometry, ...); the plan itself is a pure, cached function of
-(stage, c1) held by the plan source, so the context is the whole state. Outputs depend on the state
-only (no direct feedthrough). Ports: see :class:`StageSequencer`.
+The update runs every ``update_period`` [s]. So that its event times coincide with the other
+periodic events of a diagram (Drake computes sample times as k·period, and k·0.05 is not always
+5k·0.01 in floating point: the integrator then takes an extra step of a few ulp), the event is
+declared at the diagram's base period ``time_step`` (e.g. the sensor's 0.01 s) and the work is
+done at every n-th tick, n = max(1, round(update_period / time_step)); the other ticks do nothing.
+When the survey completes, the update returns ``EventStatus.ReachedTermination(self,
+"complete")``: a ``Simulator`` stops there, without a monitor.
+
+State (discrete groups): ``mode`` (namedview :data:`SequencerMode`: active stage index, c1, the
+held remaining fraction and the held share of the active stage still to fly), ``period`` (T [s]),
+``complete`` (0/1), ``path`` (the active stage's path descriptor, the held ``path`` output),
+``entries`` (last entry time into each primitive stage) and ``source`` (namedview
+:data:`StageSource`: the stage after which the active one was generated, its anchor and the c1 it
+was generated with; ``after_index`` −1 means the plan's first stage). The stage's geometry is not
+state: it comes from the plan source (a pure, cached function of those numbers). ``path``,
+``period`` and ``mission_complete`` are state output ports (read every step by the guidance, the
+estimator and a monitor without a Python call); the other outputs depend on the state only (no
+direct feedthrough). Ports: see :class:`StageSequencer`.
 """
 
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+from pydrake.common.containers import namedview
+from pydrake.systems.framework import EventStatus, LeafSystem
 
-from .coverage import (
+from eaplan_drake.coverage import (
     ANCHOR_SIZE,
-    APPROACH,
     NUM_PRIMITIVES,
+    PathLeft,
     PlanSource,
     Stage,
     StageTime,
-    StaticPlan,
+    SurveyFraction,
 )
-from .paths import DESCRIPTOR_SIZE
 
-__all__ = ["StageSequencer", "Triggered"]
+__all__ = ["SequencerMode", "StageSequencer", "StageSource", "Triggered", "UPDATE_PERIOD"]
+
+UPDATE_PERIOD = 0.05
+"""Default period of the sequencer's trigger test [s] (the authors' simulator's)."""
+
+SequencerMode = namedview("SequencerMode", ["stage", "c1", "remaining", "stage_left"])
+"""The sequencer's ``mode`` state: active stage index, c1 [m²], remaining survey fraction [-],
+share of the active stage's path still to fly [-]."""
+
+StageSource = namedview(
+    "StageSource", ["after_index"] + [f"anchor_{i}" for i in range(ANCHOR_SIZE)] + ["c1"]
+)
+"""The sequencer's ``source`` state: the active stage is
+``plan.StagesAfter(after_index, anchor, c1)[0]`` (``plan.Stages(c1)[0]`` when after_index < 0)."""
 
 
 def Triggered(stage: Stage, position, epsilon: float) -> bool:
-    """True when ``position`` is within ε of the stage's triggering point or has passed it
-    (pure-function form of the sequencer's test)."""
-    p = np.asarray(position, dtype=float)
-    pt = np.asarray(stage.trigger)
-    if np.linalg.norm(p - pt) < epsilon:
+    """True when ``position`` p [m] triggers the switch after ``stage`` (module docstring):
+    ‖p − p_Γ‖ < ε [m], or p has passed the normal line at p_Γ, (p − p_Γ)ᵀt̂_Γ ≥ 0, and on a
+    circle also (p − o)ᵀ(p_Γ − o) > 0."""
+    g = stage.geometry
+    px, py = position[0], position[1]
+    dx, dy = px - g.tx, py - g.ty
+    if dx * dx + dy * dy < epsilon * epsilon:
         return True
-    if float(np.dot(p - pt, stage.TriggerTangent())) < 0.0:
+    if dx * g.ux + dy * g.uy < 0.0:
         return False
-    if stage.is_circle:
-        o = stage.path.center
-        return float(np.dot(p - o, pt - o)) > 0.0
+    if g.is_circle:
+        return (px - g.ox) * (g.tx - g.ox) + (py - g.oy) * (g.ty - g.oy) > 0.0
     return True
-
-
-class _Layout:
-    """Offsets into the discrete state vector."""
-
-    def __init__(self, num_primitives: int, num_grid: int):
-        names = [
-            ("index", 1),
-            ("c1", 1),
-            ("complete", 1),
-            ("period", 1),
-            ("remaining", 1),
-            ("entries", num_primitives),
-            ("descriptor", DESCRIPTOR_SIZE),
-            ("trigger", 2),
-            ("tangent", 2),
-            ("center", 2),
-            ("is_circle", 1),
-            ("radius", 1),
-            ("ccw", 1),
-            ("primitive", 1),
-            ("length", 1),
-            ("anchor", ANCHOR_SIZE),
-            ("rest", 1),
-            ("total", 1),
-            ("stage_time", 1),
-            ("stage_left", 1),
-            ("rest_times", num_grid),
-        ]
-        vectors = {"entries", "descriptor", "trigger", "tangent", "center", "anchor", "rest_times"}
-        offset = 0
-        for name, size in names:
-            vector = name in vectors or size != 1
-            setattr(self, name, slice(offset, offset + size) if vector else offset)
-            offset += size
-        self.size = offset
 
 
 class StageSequencer(LeafSystem):
@@ -107,17 +99,18 @@ class StageSequencer(LeafSystem):
     period (paper 003 Def. II.1–II.5; see the module docstring for the equations).
 
     Args:
-        plan: a :class:`~eaplan_drake.coverage.PlanSource` (e.g. ``ZamboniCoverage``,
-            ``PlanFile``) or a sequence of :class:`~eaplan_drake.coverage.Stage` (static plan).
-        initial_c1: the path parameter of the initial plan [m²] (default: ``plan.initial_c1``,
-            else the upper bound).
-        update_period: period of the discrete update [s], > 0.
+        plan: a :class:`~eaplan_drake.coverage.PlanSource` (``ZamboniCoverage``, ``PlanFile``,
+            ``StaticPlan``); its ``airspeed`` v_a [m/s] serves the ``remaining_time`` output.
         trigger_radius: ε [m], ≥ 0 (``CoverageParams.trigger_radius``).
-        initial_period: first guess of the period T [s], > 0.
-        airspeed: v_a [m/s] of the ``remaining_time`` output (default ``plan.airspeed``).
+        initial_period: first guess of the period T [s], > 0
+            (``EnergyModelParams.initial_period``).
         wind: constant wind w [m/s] of the ``remaining_time`` output.
-        path_parameter_grid: the c1 values [m²] of the ``remaining_time`` output (default: the
-            plan's current c1 only).
+        update_period: period of the trigger test [s], > 0.
+        time_step: the diagram's base period [s] at which the event is declared (None: the
+            update period); see the module docstring.
+        initial_c1: the path parameter of the initial plan [m²] (None: ``plan.initial_c1``).
+        path_parameter_grid: the c1 values [m²] of the ``remaining_time`` output (None: the
+            initial c1 only).
 
     .. pydrake_system::
 
@@ -136,105 +129,107 @@ class StageSequencer(LeafSystem):
 
     def __init__(
         self,
-        plan,
+        plan: PlanSource,
         *,
+        trigger_radius: float,
+        initial_period: float,
+        wind,
+        update_period: float = UPDATE_PERIOD,
+        time_step: float | None = None,
         initial_c1: float | None = None,
-        update_period: float = 0.05,
-        trigger_radius: float = 2.0,
-        initial_period: float = 46.0,
-        airspeed: float | None = None,
-        wind=(0.0, 0.0),
         path_parameter_grid=None,
     ):
         super().__init__()
         if not isinstance(plan, PlanSource):
-            plan = StaticPlan(plan)
+            raise TypeError(
+                "StageSequencer.plan: expected a PlanSource (e.g. StaticPlan(stages, "
+                f"airspeed=...)), got {type(plan).__name__}"
+            )
+        if time_step is None:
+            time_step = update_period
         for name, value, ok in (
-            ("update_period", update_period, update_period > 0),
-            ("trigger_radius", trigger_radius, trigger_radius >= 0),
-            ("initial_period", initial_period, initial_period > 0),
+            ("update_period", update_period, lambda v: v > 0),
+            ("time_step", time_step, lambda v: v > 0),
+            ("trigger_radius", trigger_radius, lambda v: v >= 0),
+            ("initial_period", initial_period, lambda v: v > 0),
         ):
-            if not (math.isfinite(value) and ok):
+            v = float(value) if isinstance(value, int | float) else math.nan
+            if not (math.isfinite(v) and ok(v)):
                 raise ValueError(f"StageSequencer.{name}: out of range, got {value!r}")
         self._plan = plan
-        if initial_c1 is None:
-            initial_c1 = plan.initial_c1
-        c1 = plan.c1_bounds[1] if initial_c1 is None else initial_c1
+        c1 = plan.initial_c1 if initial_c1 is None else initial_c1
         try:
             c1 = plan.CheckC1(c1)
         except ValueError as e:
             raise ValueError(f"StageSequencer.initial_c1: {e}") from None
         self._c1_lo, self._c1_hi = plan.c1_bounds
-        self._epsilon2 = float(trigger_radius) ** 2
-        self._initial_period = float(initial_period)
+        self._epsilon = float(trigger_radius)
         self._num_primitives = int(getattr(plan, "num_primitives", NUM_PRIMITIVES))
-        self._airspeed = float(plan.airspeed if airspeed is None else airspeed)
-        self._wind = np.asarray(wind, dtype=float).reshape(2)
-        if not (
-            math.isfinite(self._airspeed)
-            and np.all(np.isfinite(self._wind))
-            and math.hypot(*self._wind) < self._airspeed
-        ):
+        self._airspeed = float(plan.airspeed)
+        self._wind = np.array(wind, dtype=float).reshape(2)
+        if not (np.all(np.isfinite(self._wind)) and math.hypot(*self._wind) < self._airspeed):
             raise ValueError(
-                "StageSequencer: need a finite airspeed above the wind speed, got "
-                f"airspeed={airspeed!r}, wind={wind!r}"
+                "StageSequencer.wind: need a finite wind below the plan's airspeed "
+                f"{self._airspeed:g} m/s, got {wind!r}"
             )
         grid = [c1] if path_parameter_grid is None else path_parameter_grid
-        self._grid = np.asarray(grid, dtype=float).reshape(-1)
+        self._grid = np.array(grid, dtype=float).reshape(-1)
         if self._grid.size < 1 or not np.all(np.isfinite(self._grid)):
             raise ValueError(
                 f"StageSequencer.path_parameter_grid: need finite values, got {grid!r}"
             )
-        L = self._layout = _Layout(self._num_primitives, self._grid.size)
+        self._time_step = float(time_step)
+        self._ticks = max(1, round(float(update_period) / self._time_step))
 
-        stages = plan.Stages(c1)
-        x0 = np.zeros(L.size)
-        x0[L.c1] = c1
-        x0[L.period] = initial_period
-        x0[L.entries] = -1.0
         # The remaining fraction is measured in survey lengths at the reference c1 = c̄1 (the
         # finest coverage), so that it does not jump when c1 is re-planned.
         self._c1_ref = self._c1_hi
-        self._LoadStage(x0, stages[0], plan.SurveyLength(self._c1_ref))
-        x0[L.remaining] = self._Fraction(x0, None)
-        self._state_index = self.DeclareDiscreteState(BasicVector(x0))
+        self._memo_key = None
+        self._total = plan.SurveyLength(self._c1_ref)
+        first = plan.Stages(c1)[0]
+        mode = SequencerMode(np.zeros(len(SequencerMode._fields)))
+        mode.c1 = c1
+        mode.stage = first.index
+        mode.remaining = SurveyFraction(first, None, self._RestLength(first), self._total)
+        mode.stage_left = 1.0
+        source = StageSource(np.zeros(len(StageSource._fields)))
+        source.after_index = -1.0
+        source.c1 = c1
+        self._mode_index = self.DeclareDiscreteState(mode[:])
+        self._period_index = self.DeclareDiscreteState([float(initial_period)])
+        self._complete_index = self.DeclareDiscreteState([0.0])
+        self._path_index = self.DeclareDiscreteState(first.descriptor.copy())
+        self._entries_index = self.DeclareDiscreteState(np.full(self._num_primitives, -1.0))
+        self._source_index = self.DeclareDiscreteState(source[:])
         self.DeclarePeriodicDiscreteUpdateEvent(
-            period_sec=float(update_period), offset_sec=0.0, update=self._Update
+            period_sec=self._time_step, offset_sec=0.0, update=self._Update
         )
 
         self._position_port = self.DeclareVectorInputPort("position", 2)
         self._path_parameters_port = self.DeclareVectorInputPort("path_parameters", 1)
         xd = {self.xd_ticket()}
 
-        def _Slice(sl, size):
+        def _Mode(field):
+            i = SequencerMode._fields.index(field)
+
             def calc(context, output):
-                output.SetFromVector(context.get_discrete_state(self._state_index).value()[sl])
+                output.SetAtIndex(0, context.get_discrete_state(self._mode_index).GetAtIndex(i))
 
             return calc
 
-        def _Scalar(i):
-            def calc(context, output):
-                output.SetAtIndex(0, context.get_discrete_state(self._state_index).GetAtIndex(i))
-
-            return calc
-
-        self._path_port = self.DeclareVectorOutputPort(
-            "path", DESCRIPTOR_SIZE, _Slice(L.descriptor, DESCRIPTOR_SIZE), prerequisites_of_calc=xd
-        )
+        self._path_port = self.DeclareStateOutputPort("path", self._path_index)
         self._stage_port = self.DeclareVectorOutputPort(
-            "stage", 1, _Scalar(L.index), prerequisites_of_calc=xd
+            "stage", 1, _Mode("stage"), prerequisites_of_calc=xd
         )
-        self._period_port = self.DeclareVectorOutputPort(
-            "period", 1, _Scalar(L.period), prerequisites_of_calc=xd
-        )
+        self._period_port = self.DeclareStateOutputPort("period", self._period_index)
         self._coverage_remaining_port = self.DeclareVectorOutputPort(
-            "coverage_remaining", 1, _Scalar(L.remaining), prerequisites_of_calc=xd
+            "coverage_remaining", 1, _Mode("remaining"), prerequisites_of_calc=xd
         )
         self._remaining_time_port = self.DeclareVectorOutputPort(
             "remaining_time", self._grid.size, self._CalcRemainingTime, prerequisites_of_calc=xd
         )
-        self._mission_complete_port = self.DeclareVectorOutputPort(
-            "mission_complete", 1, _Scalar(L.complete), prerequisites_of_calc=xd
+        self._mission_complete_port = self.DeclareStateOutputPort(
+            "mission_complete", self._complete_index
         )
 
     # -- accessors -------------------------------------------------------------------------------
@@ -274,135 +269,102 @@ class StageSequencer(LeafSystem):
 
     def EntryTimes(self, context) -> np.ndarray:
         """Last entry time [s] into each primitive stage (−1 = not yet)."""
-        return context.get_discrete_state(self._state_index).value()[self._layout.entries].copy()
+        return context.get_discrete_state(self._entries_index).CopyToVector()
 
     def PathParameter(self, context) -> float:
         """The c1 the remaining plan is flown with [m²]."""
-        return float(context.get_discrete_state(self._state_index).GetAtIndex(self._layout.c1))
+        return float(SequencerMode(context.get_discrete_state(self._mode_index).value()).c1)
+
+    def ActiveStage(self, context) -> Stage:
+        """The stage being flown (from the plan source, keyed by the ``source`` state)."""
+        return self._StageOf(context.get_discrete_state(self._source_index).value())
 
     # -- internals -------------------------------------------------------------------------------
 
+    def _StageOf(self, source) -> Stage:
+        return self._ActiveOf(source)[0]
+
+    def _ActiveOf(self, source) -> tuple[Stage, float]:
+        """(stage, survey length [m] after it at the reference c1) for the ``source`` state: pure
+        functions of the plan, memoised for the last source seen (it changes at stage switches
+        only)."""
+        key = tuple(source)
+        if key != self._memo_key:
+            after = int(key[0])
+            if after < 0:
+                stage = self._plan.Stages(key[-1])[0]
+            else:
+                stage = self._plan.StagesAfter(after, key[1:-1], key[-1])[0]
+            self._memo = (stage, self._RestLength(stage))
+            self._memo_key = key
+        return self._memo
+
     def _RestLength(self, stage: Stage) -> float:
         """Survey length [m] after ``stage`` if the rest were flown at the reference c1."""
-        rest = self._plan.StagesAfter(stage.index, tuple(stage.anchor), self._c1_ref)
-        return float(sum(s.length for s in rest if s.primitive != APPROACH))
-
-    def _LoadStage(self, x, stage: Stage, total: float) -> None:
-        L = self._layout
-        x[L.index] = stage.index
-        x[L.descriptor] = stage.path.descriptor()
-        x[L.trigger] = stage.trigger
-        x[L.tangent] = stage.TriggerTangent()
-        if stage.is_circle:
-            o = stage.path.center
-            x[L.center] = o
-            x[L.is_circle] = 1.0
-            x[L.radius] = stage.path.radius
-            x[L.ccw] = 1.0 if (stage.path.s < 0) == (stage.path.a > 0) else 0.0
-        else:
-            x[L.center] = 0.0
-            x[L.is_circle] = 0.0
-            x[L.radius] = 0.0
-            x[L.ccw] = 0.0
-        x[L.primitive] = stage.primitive
-        x[L.length] = stage.length
-        x[L.anchor] = stage.anchor
-        x[L.rest] = self._RestLength(stage)
-        x[L.total] = total
-        x[L.stage_time] = StageTime(stage, self._airspeed, self._wind)
-        x[L.stage_left] = 1.0
-        x[L.rest_times] = [
-            self._plan.TimeAfter(stage.index, stage.anchor, c1, self._airspeed, self._wind)
-            for c1 in self._grid
-        ]
+        return self._plan.SurveyLengthAfter(stage.index, stage.anchor, self._c1_ref)
 
     def _CalcRemainingTime(self, context, output) -> None:
-        L = self._layout
-        x = context.get_discrete_state(self._state_index).get_value()
-        if x[L.complete] > 0.5:
+        mode = SequencerMode(context.get_discrete_state(self._mode_index).value())
+        if context.get_discrete_state(self._complete_index).GetAtIndex(0) > 0.5:
             output.SetFromVector(np.zeros(self._grid.size))
-        else:
-            output.SetFromVector(x[L.rest_times] + x[L.stage_left] * x[L.stage_time])
-
-    def _StageLeft(self, x, p) -> float:
-        """Path length [m] left on the active stage from position p (all of it if None)."""
-        L = self._layout
-        length = x[L.length]
-        if p is None:
-            return length
-        if x[L.is_circle] > 0.5:
-            ox, oy = x[L.center]
-            tx, ty = x[L.trigger]
-            a_p = math.atan2(p[1] - oy, p[0] - ox)
-            a_t = math.atan2(ty - oy, tx - ox)
-            d = (a_t - a_p) if x[L.ccw] > 0.5 else (a_p - a_t)
-            return min(length, x[L.radius] * (d % (2.0 * math.pi)))
-        tx, ty = x[L.trigger]
-        ux, uy = x[L.tangent]
-        return min(length, max(0.0, (tx - p[0]) * ux + (ty - p[1]) * uy))
-
-    def _Fraction(self, x, p) -> float:
-        """Survey fraction still to fly from position p (entry of the stage if None)."""
-        L = self._layout
-        if x[L.complete] > 0.5:
-            return 0.0
-        total = x[L.total]
-        if total <= 0.0:
-            return 0.0
-        here = 0.0 if x[L.primitive] == APPROACH else self._StageLeft(x, p)
-        return min(1.0, max(0.0, (x[L.rest] + here) / total))
-
-    def _Triggered(self, x, px: float, py: float) -> bool:
-        L = self._layout
-        tx, ty = x[L.trigger]
-        dx, dy = px - tx, py - ty
-        if dx * dx + dy * dy < self._epsilon2:
-            return True
-        ux, uy = x[L.tangent]
-        if dx * ux + dy * uy < 0.0:
-            return False
-        if x[L.is_circle] > 0.5:
-            ox, oy = x[L.center]
-            return (px - ox) * (tx - ox) + (py - oy) * (ty - oy) > 0.0
-        return True
+            return
+        stage = self.ActiveStage(context)
+        plan, v, w = self._plan, self._airspeed, self._wind
+        rest = np.array([plan.TimeAfter(stage.index, stage.anchor, c1, v, w) for c1 in self._grid])
+        output.SetFromVector(rest + mode.stage_left * StageTime(stage, v, w))
 
     def _Update(self, context, discrete_state):
-        L = self._layout
-        x = context.get_discrete_state(self._state_index).CopyToVector()
-        if x[L.complete] > 0.5:
-            return
+        if self._ticks > 1 and round(context.get_time() / self._time_step) % self._ticks:
+            return EventStatus.DidNothing()
+        if context.get_discrete_state(self._complete_index).GetAtIndex(0) > 0.5:
+            return EventStatus.ReachedTermination(self, "complete")
+        mode = SequencerMode(context.get_discrete_state(self._mode_index).CopyToVector())
+        complete = False
+        source = context.get_discrete_state(self._source_index).CopyToVector()
+        entries = context.get_discrete_state(self._entries_index).CopyToVector()
+        period = context.get_discrete_state(self._period_index).GetAtIndex(0)
+        stage, rest_length = self._ActiveOf(source)
         p = self._position_port.Eval(context)
         px, py = float(p[0]), float(p[1])
         plan = self._plan
-        c1 = x[L.c1]
-        index = int(x[L.index])
+        c1 = mode.c1
         if self._path_parameters_port.HasValue(context):
             c1_in = float(self._path_parameters_port.Eval(context)[0])
             if math.isfinite(c1_in):
                 c1_in = min(max(c1_in, self._c1_lo), self._c1_hi)
                 if abs(c1_in - c1) > 1e-9:
                     c1 = c1_in
-                    x[L.c1] = c1
+                    mode.c1 = c1
         if math.isfinite(px) and math.isfinite(py):
             t = context.get_time()
             for _ in range(8):  # several zero-length stages may fire at once
-                if not self._Triggered(x, px, py):
+                if not Triggered(stage, (px, py), self._epsilon):
                     break
-                rest = plan.StagesAfter(index, tuple(x[L.anchor]), c1)
+                rest = plan.StagesAfter(stage.index, stage.anchor, c1)
                 if not rest:
-                    x[L.complete] = 1.0
+                    complete = True
                     break
-                self._LoadStage(x, rest[0], x[L.total])
-                index = rest[0].index
-                k = rest[0].primitive
+                source[:] = (stage.index, *stage.anchor, c1)
+                stage, rest_length = self._ActiveOf(source)
+                k = stage.primitive
+                mode.stage = stage.index
                 if 0 <= k < self._num_primitives:
-                    last = x[L.entries.start + k]
+                    last = entries[k]
                     if last >= 0.0 and t > last:
-                        x[L.period] = t - last
-                    x[L.entries.start + k] = t
-            x[L.remaining] = self._Fraction(x, (px, py))
-            length = x[L.length]
-            x[L.stage_left] = self._StageLeft(x, (px, py)) / length if length > 0.0 else 0.0
-        discrete_state.get_mutable_vector(self._state_index).SetFromVector(x)
-        if x[L.complete] > 0.5:
+                        period = t - last
+                    entries[k] = t
+            if complete:
+                mode.remaining = 0.0
+            else:
+                mode.remaining = SurveyFraction(stage, (px, py), rest_length, self._total)
+            length = stage.length
+            mode.stage_left = PathLeft(stage, (px, py)) / length if length > 0.0 else 0.0
+        discrete_state.set_value(self._mode_index, mode[:])
+        discrete_state.set_value(self._entries_index, entries)
+        discrete_state.set_value(self._source_index, source)
+        discrete_state.set_value(self._period_index, [period])
+        discrete_state.set_value(self._path_index, stage.descriptor)
+        if complete:
+            discrete_state.set_value(self._complete_index, [1.0])
             return EventStatus.ReachedTermination(self, "complete")
+        return EventStatus.Succeeded()

@@ -407,9 +407,9 @@ def test_peak_circle_heading_rate_matches_the_analytic_cases():
 def test_trigger_distance_of_lines_and_circles():
     from eaplan_drake.paths import Circle, Line
 
-    line = Line([0.0, 0.0], [0.0, 1.0]).normalised()
+    line = Line([0.0, 0.0], [0.0, 1.0], k_e=0.05).normalised()
     assert TriggerDistance(line, [3.0, -2.5]) == pytest.approx(2.5, abs=1e-12)
-    circle = Circle([1.0, 1.0], 10.0).normalised()
+    circle = Circle([1.0, 1.0], 10.0, k_e=0.05).normalised()
     assert TriggerDistance(circle, [1.0, 31.0]) == pytest.approx(20.0, abs=1e-9)
     assert TriggerDistance(circle, [1.0, 1.0]) == pytest.approx(10.0, abs=1e-9)
 

@@ -2,6 +2,7 @@
 
 import dataclasses as dc
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -12,10 +13,13 @@ from eaplan_drake.coverage import (
     CoverageTime,
     GroundSpeed,
     MakeCoveragePlan,
+    PathLeft,
     PathLength,
     ScalingFactors,
     Stage,
+    StageRemaining,
     StageTime,
+    SurveyFraction,
     TurningRadius2,
     ZamboniCoverage,
 )
@@ -24,11 +28,18 @@ from eaplan_drake.paths import Circle
 
 V_A = 15.0
 R2_MIN = math.sqrt(3900.0)  # r2(−1000)
+START = (-100.0, 220.0)
+K_E = GuidanceParams().k_e
+
+
+def _Zamboni(params=None, start=START, c1=0.0, airspeed=V_A, k_e=K_E):
+    params = CoverageParams() if params is None else params
+    return ZamboniCoverage(params, start=start, airspeed=airspeed, initial_c1=c1, k_e=k_e)
 
 
 @pytest.fixture(scope="module")
 def reference():
-    return ZamboniCoverage(CoverageParams(), start=(-100.0, 220.0))
+    return _Zamboni()
 
 
 def _line_x(stage: Stage) -> float:
@@ -119,7 +130,9 @@ def test_coverage_time_matches_geometry_and_the_paper(reference):
         t = reference.CoverageTime(c1, V_A)
         assert t == pytest.approx(_analytic_time(c1, n_reps, angle), rel=1e-12)
         assert abs(t - paper) <= 0.10 * paper
-    assert CoverageTime(None, 0.0, V_A) == pytest.approx(reference.CoverageTime(0.0, V_A))
+    assert CoverageTime(CoverageParams(), 0.0, V_A, start=START) == pytest.approx(
+        reference.CoverageTime(0.0, V_A)
+    )
     assert reference.CoverageTime(0.0, V_A, include_approach=False) == pytest.approx(
         reference.SurveyLength(0.0) / V_A
     )
@@ -131,7 +144,7 @@ def test_ground_speed_and_stage_time_in_wind():
     assert GroundSpeed((-1.0, 0.0), V_A, w) == pytest.approx(10.0)
     assert GroundSpeed((0.0, 1.0), V_A, w) == pytest.approx(math.sqrt(200.0))
     # A half circle (bottom, downwind) against an independent time integration of the arc.
-    c = Circle((0.0, 0.0), 75.0, s=-1.0)
+    c = Circle((0.0, 0.0), 75.0, s=-1.0, k_e=K_E)
     st = Stage(0, c, (75.0, 0.0), 1, 0.0, (-75.0, 0.0), math.pi * 75.0)
     theta, t, h = math.pi, 0.0, 1e-3  # ccw from 180° through 270° to 360°
     while theta < 2 * math.pi:
@@ -228,7 +241,7 @@ def test_remaining_fraction_falls_from_one_to_zero(reference):
 
 
 def test_rotated_and_reordered_polygon_gives_the_rotated_plan():
-    ref = ZamboniCoverage(CoverageParams(), start=(-100.0, 220.0))
+    ref = _Zamboni()
     angle = math.radians(30.0)
     R = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
     pivot = np.array([10.0, -20.0])
@@ -242,7 +255,7 @@ def test_rotated_and_reordered_polygon_gives_the_rotated_plan():
     shuffled = [poly[2], poly[0], poly[1], poly[3]]  # edge (v0, v1) = 1
     for vertices, edge in ((poly, 0), (ccw, 3), (shuffled, 1)):
         params = dc.replace(CoverageParams(), polygon=vertices, line_edge=edge)
-        plan = ZamboniCoverage(params, start=rot((-100.0, 220.0)))
+        plan = _Zamboni(params, start=rot(START))
         for a, b in zip(ref.Stages(-400.0), plan.Stages(-400.0), strict=True):
             assert b.trigger == pytest.approx(rot(a.trigger), abs=1e-9)
             assert b.length == pytest.approx(a.length, rel=1e-9)
@@ -257,7 +270,7 @@ def test_trapezoid_lines_cover_their_swath_and_turns_are_tangent():
         polygon=[[0.0, 0.0], [400.0, 0.0], [330.0, 320.0], [60.0, 320.0]],
         line_edge=0,
     )
-    plan = ZamboniCoverage(params, start=(0.0, -150.0))
+    plan = _Zamboni(params, start=(0.0, -150.0))
     poly = plan.polygon
     assert poly.width == pytest.approx(320.0)
     assert poly.e2 == pytest.approx([0.0, 1.0])  # sweep towards +y (into the polygon)
@@ -303,7 +316,7 @@ def test_polygon_band_extent_of_a_triangle():
 def test_bad_polygons_are_rejected_with_a_clear_message(polygon, edge, match):
     params = dc.replace(CoverageParams(), polygon=polygon, line_edge=edge)
     with pytest.raises(ValueError, match=match):
-        ZamboniCoverage(params)
+        _Zamboni(params)
 
 
 def test_scenario_validation_checks_the_geometry():
@@ -317,16 +330,25 @@ def test_scenario_validation_checks_the_geometry():
 
 def test_bad_radii_and_path_parameters_are_rejected(reference):
     with pytest.raises(ValueError, match=r"min_turning_radius.*r_min = 80.*r = 70"):
-        ZamboniCoverage(dc.replace(CoverageParams(), min_turning_radius=80.0))
+        _Zamboni(dc.replace(CoverageParams(), min_turning_radius=80.0))
     with pytest.raises(ValueError, match="swath_spacing"):
-        ZamboniCoverage(dc.replace(CoverageParams(), swath_spacing=0.0))
+        _Zamboni(dc.replace(CoverageParams(), swath_spacing=0.0))
     for c1 in (-1000.1, 1.0, float("nan")):
         with pytest.raises(ValueError, match=r"c1 must be in \[-1000, 0\]"):
             reference.Stages(c1)
     with pytest.raises(ValueError, match="c1 must be in"):
         reference.Replan(reference.Stages(0.0), 3, -2000.0)
     with pytest.raises(ValueError, match="initial.*c1"):
-        MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=10.0)
+        MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=10.0, k_e=K_E)
+    for kw, match in (
+        ({"k_e": 0.0}, "k_e"),
+        ({"airspeed": -1.0}, "airspeed"),
+        ({"start": (0.0, math.nan)}, "start"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            _Zamboni(**kw)
+    with pytest.raises(TypeError, match="initial_c1"):
+        ZamboniCoverage(CoverageParams(), start=START, airspeed=V_A, k_e=K_E)
 
 
 def test_make_coverage_plan_uses_the_vehicle():
@@ -346,8 +368,52 @@ def test_make_coverage_plan_uses_the_vehicle():
 
 
 def test_path_length_helper():
-    c = Circle((0.0, 0.0), 10.0, s=-1.0)  # ccw
+    c = Circle((0.0, 0.0), 10.0, s=-1.0, k_e=K_E)  # ccw
     assert PathLength(c, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 5.0)
     assert PathLength(c, (0.0, 10.0), (10.0, 0.0)) == pytest.approx(math.pi * 15.0)
     cw = dc.replace(c, s=1.0)
     assert PathLength(cw, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 15.0)
+
+
+def test_plan_remembers_a_copy_of_its_parameters():
+    params = CoverageParams()
+    plan = _Zamboni(params)
+    params.swath_spacing = 20.0
+    assert plan.params.swath_spacing == 10.0 and plan.x_d == 10.0
+
+
+def test_plans_pickle_as_their_definition(reference):
+    stages = reference.Stages(-500.0)  # fills the caches
+    after = reference.StagesAfter(4, stages[4].anchor, -1000.0)
+    copy = pickle.loads(pickle.dumps(reference))
+    assert not any(k.startswith("_memo_") for k in vars(copy))
+    assert copy.Stages(-500.0) == stages
+    assert copy.StagesAfter(4, stages[4].anchor, -1000.0) == after
+    assert copy.TimeAfter(4, stages[4].anchor, -1000.0, V_A, (5.0, 0.0)) == (
+        reference.TimeAfter(4, stages[4].anchor, -1000.0, V_A, (5.0, 0.0))
+    )
+    assert (copy.airspeed, copy.initial_c1, copy.c1_bounds) == (V_A, 0.0, reference.c1_bounds)
+
+
+def test_path_left_and_survey_fraction_on_a_line_and_a_circle(reference):
+    approach, down, turn1 = reference.Stages(0.0)[:3]
+    # Down-line x = −115 from y = 146 to y = 11 (135 m).
+    assert PathLeft(down) == down.length == pytest.approx(135.0)
+    assert PathLeft(down, (-115.0, 100.0)) == pytest.approx(89.0, abs=1e-12)
+    assert PathLeft(down, (-110.0, 5.0)) == 0.0  # past the trigger
+    assert PathLeft(down, (-115.0, 200.0)) == down.length  # before the entry: capped
+    # The r1 = 75 m half circle from (−115, 11) around (−40, 11) to (35, 11), counter-clockwise
+    # through (−40, −64): a quarter turn is left at its lowest point.
+    assert PathLeft(turn1, (-40.0, -64.0)) == pytest.approx(math.pi * 75.0 / 2.0, rel=1e-12)
+    assert PathLeft(turn1, (-115.0, 11.0)) == pytest.approx(turn1.length, rel=1e-12)
+    assert StageRemaining(approach, (-100.0, 220.0)) == 0.0  # not part of the survey
+    assert StageRemaining(turn1, (-40.0, -64.0)) == PathLeft(turn1, (-40.0, -64.0))
+    total = reference.SurveyLength(0.0)
+    rest = reference.SurveyLengthAfter(2, turn1.anchor, 0.0)
+    assert rest == pytest.approx(total - 135.0 - turn1.length)
+    assert SurveyFraction(turn1, (-40.0, -64.0), rest, total) == pytest.approx(
+        (rest + math.pi * 75.0 / 2.0) / total, rel=1e-12
+    )
+    assert SurveyFraction(turn1, None, rest, 0.0) == 0.0
+    assert SurveyFraction(approach, None, 2.0 * total, total) == 1.0  # clipped to [0, 1]
+    assert reference.RemainingFraction(reference.Stages(0.0), 1) == pytest.approx(1.0)

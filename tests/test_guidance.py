@@ -166,7 +166,7 @@ def test_command_is_finite_and_bounded_everywhere():
 
 
 def test_non_finite_input_raises():
-    d = Line([0.0, 0.0], [1.0, 0.0]).descriptor()
+    d = Line([0.0, 0.0], [1.0, 0.0], k_e=KE).descriptor()
     with pytest.raises(ValueError, match="non-finite input"):
         HeadingRateCommand([math.nan, 0.0], [15.0, 0.0], 0.0, d, VA, KD, RMAX)
     with pytest.raises(ValueError, match="non-finite input"):

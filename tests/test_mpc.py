@@ -62,7 +62,7 @@ def _RandomState(rng):
 
 @pytest.fixture(scope="module")
 def plan():
-    return MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=0.0)
+    return MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=0.0, k_e=0.05)
 
 
 def test_soc_prediction_matches_the_rint_closed_form_for_a_constant_load(table):

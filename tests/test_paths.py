@@ -15,9 +15,9 @@ def _fd_gradient(path, p, h=1e-6):
 @pytest.mark.parametrize(
     "path",
     [
-        Circle((-45.0, 146.0), 70.0, s=-1),
-        Line((-115.0, 146.0), (1.0, 0.0), s=1),
-        Line((3.0, 4.0), (1.0, 2.0), s=-1),
+        Circle((-45.0, 146.0), 70.0, s=-1, k_e=0.05),
+        Line((-115.0, 146.0), (1.0, 0.0), s=1, k_e=0.05),
+        Line((3.0, 4.0), (1.0, 2.0), s=-1, k_e=0.05),
     ],
 )
 def test_gradient_and_hessian_match_finite_differences(path):
@@ -30,7 +30,7 @@ def test_gradient_and_hessian_match_finite_differences(path):
 
 
 def test_circle_is_normalised_signed_distance_on_the_path():
-    c = Circle((10.0, -5.0), 70.0)
+    c = Circle((10.0, -5.0), 70.0, k_e=0.05)
     for theta in np.linspace(0, 2 * np.pi, 13):
         p = np.array([10.0, -5.0]) + 70.0 * np.array([np.cos(theta), np.sin(theta)])
         assert abs(c.value(p)) < 1e-9
@@ -45,11 +45,11 @@ def test_circle_is_normalised_signed_distance_on_the_path():
 
 def test_direction_conventions():
     # s = +1 on a circle is clockwise: at the rightmost point the tangent points to −y.
-    c = Circle((0.0, 0.0), 10.0, s=1)
+    c = Circle((0.0, 0.0), 10.0, s=1, k_e=0.05)
     t = c.tangent([10.0, 0.0])
     assert t[1] < 0 and abs(t[0]) < 1e-12
     # s = +1 on φ = x − x0 travels towards −y.
-    line = Line((5.0, 0.0), (1.0, 0.0), s=1)
+    line = Line((5.0, 0.0), (1.0, 0.0), s=1, k_e=0.05)
     assert line.tangent([5.0, 3.0])[1] == pytest.approx(-1.0)
 
 
@@ -62,19 +62,21 @@ def test_descriptor_round_trip_and_normalisation():
     raw = PathFunction(a=1.0, b=(-2.0, -4.0), c=1.0 + 4.0 - 900.0, s=-1, k_e=0.05)
     n = raw.normalised()
     np.testing.assert_allclose(n.descriptor(), d, atol=1e-12)
-    raw_line = PathFunction(a=0.0, b=(3.0, 0.0), c=-15.0)
+    raw_line = PathFunction(a=0.0, b=(3.0, 0.0), c=-15.0, k_e=0.05)
     assert raw_line.normalised().value([5.0, 9.0]) == pytest.approx(0.0)
     assert np.linalg.norm(raw_line.normalised().gradient([0, 0])) == pytest.approx(1.0)
 
 
 def test_bad_input_is_a_clear_error():
     with pytest.raises(ValueError, match="radius"):
-        Circle((0, 0), -1.0)
+        Circle((0, 0), -1.0, k_e=0.05)
     with pytest.raises(ValueError, match="normal"):
-        Line((0, 0), (0.0, 0.0))
+        Line((0, 0), (0.0, 0.0), k_e=0.05)
     with pytest.raises(ValueError, match="direction"):
-        PathFunction(a=0.0, b=(1.0, 0.0), c=0.0, s=0.5)
+        PathFunction(a=0.0, b=(1.0, 0.0), c=0.0, s=0.5, k_e=0.05)
     with pytest.raises(ValueError, match="finite"):
-        PathFunction(a=np.nan, b=(1.0, 0.0), c=0.0)
+        PathFunction(a=np.nan, b=(1.0, 0.0), c=0.0, k_e=0.05)
     with pytest.raises(ValueError, match="entries"):
         PathFunction.FromDescriptor([1, 2, 3])
+    with pytest.raises(TypeError, match="k_e"):  # no default gain: the scenario's k_e is given
+        Line((0, 0), (1.0, 0.0))

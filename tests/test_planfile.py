@@ -2,17 +2,20 @@
 authors' reference plans."""
 
 import math
+import pickle
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from eaplan_drake.coverage import APPROACH, ArcAngle, ZamboniCoverage
-from eaplan_drake.params import GuidanceParams
+from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
 from eaplan_drake.planfile import (
     REFERENCE_PLAN,
     LoadPlanFile,
+    MakePlanSource,
     ParseExpression,
+    PlanFile,
     PlanFileError,
     QuadraticForm,
     ReadPlanFile,
@@ -22,6 +25,13 @@ from eaplan_drake.powerlog import REFERENCE_ENV, ReferenceDirectory
 REFERENCE_DIR = ReferenceDirectory()
 DYN_PLAN = REFERENCE_DIR / "dyn_plan_specification.pln"
 STATIC_PLAN = REFERENCE_DIR / "plan_specification.pln"
+K_E = GuidanceParams().k_e
+START = (-100.0, 220.0)
+KW = {"k_e": K_E, "start": START, "airspeed": 15.0, "initial_c1": 0.0, "c1_bounds": (-1000.0, 0.0)}
+
+
+def _Zamboni():
+    return ZamboniCoverage(CoverageParams(), start=START, airspeed=15.0, initial_c1=0.0, k_e=K_E)
 
 
 @pytest.mark.parametrize(
@@ -73,31 +83,37 @@ def test_expression_domain_errors():
 
 def test_quadratic_form_identification():
     circle = ParseExpression("(x+45)^2+(y-146)^2-4900")
-    a, bx, by, c = QuadraticForm(lambda x, y: circle(x, y), (-115.0, 146.0))
-    assert (a, bx, by, c) == pytest.approx((1.0, 90.0, -292.0, 45**2 + 146**2 - 4900), rel=1e-9)
-    line = ParseExpression("x-35")
-    assert QuadraticForm(lambda x, y: line(x, y), (35.0, 146.0)) == pytest.approx(
-        (0.0, 1.0, 0.0, -35.0), abs=1e-9
-    )
+    assert QuadraticForm(circle) == (1.0, 90.0, -292.0, 45**2 + 146**2 - 4900)  # exact
+    assert QuadraticForm(ParseExpression("x-35")) == (0.0, 1.0, 0.0, -35.0)
+    # c1 enters through constant sub-expressions, evaluated with the domain checks.
+    shifted = ParseExpression("(x-sqrt(4900+c1))^2/2+y^2/2-c1")
+    r = math.sqrt(3900.0)
+    assert QuadraticForm(shifted, -1000.0) == pytest.approx((0.5, -r, 0.0, r * r / 2 + 1000.0))
+    assert QuadraticForm(ParseExpression("x^2+y^2-(c1+1)^2"), 1.0) == (1.0, 0.0, 0.0, -4.0)
     for bad, match in (
-        ("x^3+y", "degree <= 2"),
-        ("sqrt(x^2+y^2)-10", "degree <= 2"),
+        ("x^3+y", "power of x or y.*degree <= 2"),
+        ("(x^2+y)^2", "degree > 2"),
+        ("sqrt(x^2+y^2)-10", "column 1: .*sqrt of x or y"),
+        ("1/x", "column 2: .*division of x or y"),
+        ("x^0.5+y", "column 2: .*power of x or y"),
+        ("x^y", "power of x or y"),
         ("x*y-1", "x·y"),
         ("x^2+2*y^2-1", "equal x² and y²"),
     ):
-        e = ParseExpression(bad)
         with pytest.raises(ValueError, match=match):
-            QuadraticForm(lambda x, y, e=e: e(x, y), (10.0, 10.0))
+            QuadraticForm(ParseExpression(bad))
+    with pytest.raises(ValueError, match="sqrt of a negative"):
+        QuadraticForm(ParseExpression("x+sqrt(c1)"), -1.0)
 
 
 def test_reference_plan_reads_into_the_generated_geometry():
-    plan = ReadPlanFile()  # packaged plan_specification.pln
+    plan = ReadPlanFile(**KW)  # packaged plan_specification.pln
     assert plan.shift == (-10.0, -1.0)
     stages = plan.Stages(0.0)
     assert len(stages) == 60
     assert [s.primitive for s in stages[:6]] == [APPROACH, 0, 1, 2, 3, 0]
     assert stages[-1].trigger == (175.0, 161.0)
-    generated = ZamboniCoverage().Stages(0.0)
+    generated = _Zamboni().Stages(0.0)
     for a, b in zip(stages, generated, strict=True):
         assert a.primitive == b.primitive
         assert a.path.is_circle == b.path.is_circle
@@ -114,7 +130,7 @@ def test_reference_plan_reads_into_the_generated_geometry():
 
 
 def test_direction_zero_flies_the_first_circle_counter_clockwise():
-    first = ReadPlanFile().Stages(0.0)[0]
+    first = ReadPlanFile(**KW).Stages(0.0)[0]
     assert first.path.center == pytest.approx([-45.0, 146.0])
     assert first.path.radius == pytest.approx(70.0)
     assert first.path.s == -1.0
@@ -126,7 +142,7 @@ def test_direction_zero_flies_the_first_circle_counter_clockwise():
     assert first.TriggerTangent() == pytest.approx([0.0, -1.0])
     top = first.path.tangent((-45.0, 216.0))
     assert top[0] < 0 and abs(top[1]) < 1e-12  # at the top it travels towards −x: ccw
-    lines = ReadPlanFile().Stages(0.0)[1:4:2]  # x+115 (direction 1), x-35 (direction 0)
+    lines = ReadPlanFile(**KW).Stages(0.0)[1:4:2]  # x+115 (direction 1), x-35 (direction 0)
     assert lines[0].TriggerTangent() == pytest.approx([0.0, -1.0])
     assert lines[1].TriggerTangent() == pytest.approx([0.0, 1.0])
 
@@ -136,8 +152,8 @@ def test_direction_zero_flies_the_first_circle_counter_clockwise():
     reason=f"authors' reference data not found in {REFERENCE_DIR} (set {REFERENCE_ENV})",
 )
 def test_dynamic_plan_at_c1_zero_equals_the_static_one():
-    static = ReadPlanFile(STATIC_PLAN).Stages(0.0)
-    dyn = ReadPlanFile(DYN_PLAN)
+    static = ReadPlanFile(STATIC_PLAN, **KW).Stages(0.0)
+    dyn = ReadPlanFile(DYN_PLAN, **KW)
     assert dyn.specs[-1].trigger_line == 202  # the fixed final point (175, 161)
     for a, b in zip(dyn.Stages(0.0), static, strict=True):
         np.testing.assert_allclose(a.path.descriptor(), b.path.descriptor(), atol=1e-9)
@@ -153,7 +169,7 @@ def test_dynamic_plan_at_c1_zero_equals_the_static_one():
 
 
 def _read(text, **kw):
-    return ReadPlanFile(text=text, **kw)
+    return ReadPlanFile(text=text, **{**KW, **kw})
 
 
 @pytest.mark.parametrize(
@@ -210,19 +226,51 @@ def test_final_point_argument_completes_a_plan_without_one():
 
 def test_plan_file_missing_and_bad_arguments(tmp_path):
     with pytest.raises(PlanFileError, match="no such plan file"):
-        ReadPlanFile(tmp_path / "nope.pln")
+        ReadPlanFile(tmp_path / "nope.pln", **KW)
     with pytest.raises(ValueError, match="k_e"):
-        ReadPlanFile(k_e=-1.0)
+        ReadPlanFile(**{**KW, "k_e": -1.0})
     with pytest.raises(ValueError, match="c1 must be in"):
-        ReadPlanFile().Stages(10.0)
+        ReadPlanFile(**KW).Stages(10.0)
+    with pytest.raises(ValueError, match=r"PlanFile.initial_c1: .*\[-1000, 0\]"):
+        ReadPlanFile(**{**KW, "initial_c1": 5.0})
+    with pytest.raises(ValueError, match="PlanFile.airspeed"):
+        ReadPlanFile(**{**KW, "airspeed": 0.0})
+    with pytest.raises(TypeError, match="c1_bounds"):
+        ReadPlanFile(k_e=K_E, start=START, airspeed=15.0, initial_c1=0.0)
 
 
 def test_load_plan_file_for_a_scenario():
-    plan = LoadPlanFile("reference", c1=0.0, k_e=0.03)
+    vehicle = VehicleParams(airspeed=16.0)
+    plan = LoadPlanFile("reference", vehicle, c1=-200.0, k_e=0.03, c1_bounds=(-1000.0, 0.0))
     assert Path(REFERENCE_PLAN).is_file()
-    assert plan.initial_c1 == 0.0 and plan.airspeed == 15.0
+    assert plan.initial_c1 == -200.0 and plan.airspeed == 16.0
+    assert tuple(plan.start) == tuple(vehicle.initial_position)
+    assert plan.CoverageTimeBounds()[1] == pytest.approx(plan.CoverageTime(0.0, 16.0))
     assert plan.Stages(0.0)[5].path.k_e == 0.03
-    t_lo, t_hi = plan.CoverageTimeBounds((-1000.0, 0.0))
+    t_lo, t_hi = plan.CoverageTimeBounds((-1000.0, 0.0), airspeed=15.0)
     assert t_lo == t_hi  # the static plan does not depend on c1
     # The authors' plan is 1 m per repetition longer on each line than ours: ≈ 716 s at 15 m/s.
-    assert t_hi == pytest.approx(ZamboniCoverage().CoverageTime(0.0, 15.0) + 1.0, abs=0.5)
+    assert t_hi == pytest.approx(_Zamboni().CoverageTime(0.0, 15.0) + 1.0, abs=0.5)
+
+
+def test_make_plan_source_builds_the_scenarios_plan():
+    scenario = Scenario()
+    scenario.vehicle.airspeed = 17.0
+    scenario.guidance.k_e = 0.04
+    plan = MakePlanSource(scenario, initial_c1=-300.0)
+    assert isinstance(plan, ZamboniCoverage)
+    assert (plan.airspeed, plan.initial_c1, plan.k_e) == (17.0, -300.0, 0.04)
+    assert tuple(plan.start) == tuple(scenario.vehicle.initial_position)
+    scenario.coverage.plan_file = "reference"
+    scenario.planner.path_parameter_bounds = [-800.0, 0.0]
+    pln = MakePlanSource(scenario, initial_c1=0.0)
+    assert isinstance(pln, PlanFile) and pln.c1_bounds == (-800.0, 0.0)
+    assert (pln.airspeed, pln.k_e) == (17.0, 0.04)
+
+
+def test_plan_file_pickles():
+    plan = ReadPlanFile(**KW)
+    stages = plan.Stages(-1000.0)
+    copy = pickle.loads(pickle.dumps(plan))
+    assert copy.Stages(-1000.0) == stages
+    assert copy.source == plan.source and copy.c1_bounds == plan.c1_bounds

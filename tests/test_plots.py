@@ -48,7 +48,7 @@ def test_robust_range_ignores_a_start_up_spike():
 
 
 def test_stage_points_follow_the_circle_from_entry_to_trigger():
-    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0)
+    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0, k_e=0.05)
     stage = next(s for s in plan.Stages(0.0) if s.is_circle and s.primitive >= 0)
     pts = StagePoints(stage, step=1.0)
     r = np.linalg.norm(pts - np.asarray(stage.path.center), axis=1)
@@ -173,7 +173,7 @@ def test_policy_comparison_has_a_path_panel_per_policy():
 def test_draw_plan_labels_a_solid_stage():
     from eaplan_drake.plots import DrawPlan
 
-    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0)
+    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0, k_e=0.05)
     fig, ax = plt.subplots()
     DrawPlan(ax, plan.Stages(0.0), label="plan")
     handles, labels = ax.get_legend_handles_labels()

@@ -30,7 +30,7 @@ def _MpcPolicy(scenario):
     from eaplan_drake.coverage import MakeCoveragePlan
     from eaplan_drake.diagram import MakeScenarioPolicy
 
-    plan = MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=0.0)
+    plan = MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=0.0, k_e=scenario.guidance.k_e)
     return MakeScenarioPolicy(scenario, TABLE, plan)
 
 

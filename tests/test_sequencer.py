@@ -4,13 +4,14 @@ import math
 
 import numpy as np
 import pytest
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import Simulator, SimulatorStatus
 from pydrake.systems.framework import BasicVector, DiagramBuilder, EventStatus, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from eaplan_drake.coverage import StageTime, TurningRadius2, ZamboniCoverage
-from eaplan_drake.params import GuidanceParams, VehicleParams
+from eaplan_drake.coverage import StageTime, StaticPlan, TurningRadius2, ZamboniCoverage
+from eaplan_drake.diagram import AddGuidedAircraft
+from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
 from eaplan_drake.paths import DESCRIPTOR_SIZE, PathFunction
 from eaplan_drake.planfile import LoadPlanFile
 from eaplan_drake.sequencer import StageSequencer, Triggered
@@ -26,9 +27,25 @@ PORTS_OUT = {
 }
 
 
+START = (-100.0, 220.0)
+K_E = GuidanceParams().k_e
+
+
+def _Plan(c1=0.0):
+    return ZamboniCoverage(CoverageParams(), start=START, airspeed=V_A, initial_c1=c1, k_e=K_E)
+
+
+def _Seq(plan, **kwargs):
+    """A sequencer with the reference scenario's values unless given."""
+    kwargs.setdefault("trigger_radius", CoverageParams().trigger_radius)
+    kwargs.setdefault("initial_period", 46.0)
+    kwargs.setdefault("wind", (0.0, 0.0))
+    return StageSequencer(plan, **kwargs)
+
+
 @pytest.fixture(scope="module")
 def plan():
-    return ZamboniCoverage()
+    return _Plan()
 
 
 class KinematicFollower(LeafSystem):
@@ -57,23 +74,12 @@ class KinematicFollower(LeafSystem):
         derivatives.get_mutable_vector().SetFromVector([self._v * mx / n, self._v * my / n])
 
 
-def _Stop(system, port):
-    def monitor(root):
-        if port.Eval(system.GetMyContextFromRoot(root))[0] > 0.5:
-            return EventStatus.ReachedTermination(system, "mission complete")
-        return EventStatus.Succeeded()
-
-    return monitor
-
-
 GRID = np.linspace(-1000.0, 0.0, 5)
 
 
-def _FlyStandIn(plan, c1_source, start=(-100.0, 220.0), t_max=900.0):
+def _FlyStandIn(plan, c1_source, start=START, t_max=900.0):
     builder = DiagramBuilder()
-    seq = builder.AddSystem(
-        StageSequencer(plan, initial_c1=0.0, airspeed=V_A, path_parameter_grid=GRID)
-    )
+    seq = builder.AddSystem(_Seq(plan, initial_c1=0.0, path_parameter_grid=GRID))
     follower = builder.AddSystem(KinematicFollower(V_A, start))
     builder.Connect(seq.GetOutputPort("path"), follower.get_input_port())
     builder.Connect(follower.get_output_port(), seq.GetInputPort("position"))
@@ -82,10 +88,12 @@ def _FlyStandIn(plan, c1_source, start=(-100.0, 220.0), t_max=900.0):
     logs = {n: LogVectorOutput(seq.GetOutputPort(n), builder, 0.05) for n in names}
     diagram = builder.Build()
     sim = Simulator(diagram)
-    sim.set_monitor(_Stop(seq, seq.GetOutputPort("mission_complete")))
-    sim.AdvanceTo(t_max)
+    status = sim.AdvanceTo(t_max)
+    # The sequencer ends the simulation itself when the survey is complete.
+    assert status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition
+    assert status.message() == "complete" and status.system() is seq
     ctx = sim.get_context()
-    diagram.ForcedPublish(ctx)  # log the state after the update that ended the flight
+    diagram.ForcedPublish(ctx)  # the loggers record the final (completed) state
     return ctx.get_time(), {n: lg.FindLog(ctx) for n, lg in logs.items()}
 
 
@@ -102,7 +110,7 @@ def _Step(t_switch, before, after):
 
 
 def test_ports_and_no_direct_feedthrough(plan):
-    seq = StageSequencer(plan)
+    seq = _Seq(plan)
     for name, size in PORTS_IN.items():
         assert seq.GetInputPort(name).size() == size
     for name, size in PORTS_OUT.items():
@@ -115,7 +123,7 @@ def test_ports_and_no_direct_feedthrough(plan):
 
 
 def test_initial_outputs(plan):
-    seq = StageSequencer(plan, initial_c1=-1000.0, initial_period=40.0)
+    seq = _Seq(plan, initial_c1=-1000.0, initial_period=40.0)
     ctx = seq.CreateDefaultContext()
     first = plan.Stages(-1000.0)[0]
     np.testing.assert_array_equal(seq.GetOutputPort("path").Eval(ctx), first.path.descriptor())
@@ -128,7 +136,7 @@ def test_initial_outputs(plan):
 
 def test_remaining_time_is_the_exact_coverage_time_at_each_grid_value(plan):
     wind = (4.0, -2.0)
-    seq = StageSequencer(plan, initial_c1=0.0, airspeed=V_A, wind=wind, path_parameter_grid=GRID)
+    seq = _Seq(plan, initial_c1=0.0, wind=wind, path_parameter_grid=GRID)
     ctx = seq.CreateDefaultContext()
     t_rem = seq.GetOutputPort("remaining_time").Eval(ctx)
     # The active stage (the approach, generated at c1 = 0) is kept; the rest follows each c1.
@@ -140,10 +148,10 @@ def test_remaining_time_is_the_exact_coverage_time_at_each_grid_value(plan):
     assert t_rem[-1] == pytest.approx(plan.CoverageTime(0.0, V_A, wind), rel=1e-12)
     assert np.all(np.diff(t_rem) >= 0.0)  # a staircase: never shorter at a larger c1
     np.testing.assert_array_equal(seq.path_parameter_grid, GRID)
-    default = StageSequencer(plan, initial_c1=-500.0, airspeed=V_A)
+    default = _Seq(plan, initial_c1=-500.0)
     assert default.GetOutputPort("remaining_time").size() == 1
-    with pytest.raises(ValueError, match="airspeed above the wind"):
-        StageSequencer(plan, airspeed=V_A, wind=(20.0, 0.0))
+    with pytest.raises(ValueError, match="wind below the plan's airspeed"):
+        _Seq(plan, wind=(20.0, 0.0))
 
 
 def test_bad_constructor_arguments(plan):
@@ -151,10 +159,15 @@ def test_bad_constructor_arguments(plan):
         ({"update_period": 0.0}, "update_period"),
         ({"trigger_radius": -1.0}, "trigger_radius"),
         ({"initial_period": float("nan")}, "initial_period"),
+        ({"time_step": -0.01}, "time_step"),
         ({"initial_c1": 5.0}, r"initial_c1.*\[-1000, 0\]"),
     ):
         with pytest.raises(ValueError, match=match):
-            StageSequencer(plan, **kw)
+            _Seq(plan, **kw)
+    with pytest.raises(TypeError, match="PlanSource"):
+        _Seq(plan.Stages(0.0))
+    with pytest.raises(TypeError, match="trigger_radius"):
+        StageSequencer(plan, initial_period=46.0, wind=(0.0, 0.0))
 
 
 def test_trigger_conditions(plan):
@@ -175,12 +188,12 @@ def _Step1(seq, ctx, position, t, c1=0.0):
     ctx.SetTime(t)
     seq.GetInputPort("position").FixValue(ctx, np.asarray(position, dtype=float))
     seq.GetInputPort("path_parameters").FixValue(ctx, [c1])
-    ctx.SetDiscreteState(seq.EvalUniquePeriodicDiscreteUpdate(ctx).get_vector().value())
+    ctx.get_mutable_discrete_state().SetFrom(seq.EvalUniquePeriodicDiscreteUpdate(ctx))
 
 
 def test_stage_switching_period_and_remaining_fraction(plan):
     stages = plan.Stages(0.0)
-    seq = StageSequencer(plan, trigger_radius=1.0, initial_period=46.0)
+    seq = _Seq(plan, trigger_radius=1.0, initial_period=46.0)
     ctx = seq.CreateDefaultContext()
     stage = seq.GetOutputPort("stage")
     _Step1(seq, ctx, (-90.0, 200.0), 0.0)
@@ -210,7 +223,7 @@ def test_stage_switching_period_and_remaining_fraction(plan):
 
 def test_a_far_overshoot_still_triggers_and_the_mission_completes(plan):
     stages = plan.Stages(-1000.0)
-    seq = StageSequencer(plan, initial_c1=-1000.0, trigger_radius=0.0)
+    seq = _Seq(plan, initial_c1=-1000.0, trigger_radius=0.0)
     ctx = seq.CreateDefaultContext()
     for i, st in enumerate(stages):
         # 30 m past each trigger along the direction of travel.
@@ -228,7 +241,7 @@ def test_a_far_overshoot_still_triggers_and_the_mission_completes(plan):
 
 def test_path_parameter_change_replans_after_the_current_stage(plan):
     stages = plan.Stages(0.0)
-    seq = StageSequencer(plan, trigger_radius=1.0)
+    seq = _Seq(plan, trigger_radius=1.0)
     ctx = seq.CreateDefaultContext()
     for i in range(1, 4):  # into stage 3, the first up-line
         _Step1(seq, ctx, stages[i - 1].trigger, float(i))
@@ -253,9 +266,47 @@ def test_path_parameter_change_replans_after_the_current_stage(plan):
     assert seq.PathParameter(ctx) == 0.0
 
 
+def test_updates_run_on_the_base_ticks_and_the_sequencer_ends_the_simulation(plan):
+    stages = plan.Stages(0.0)[:3]  # approach, down-line, r1 turn
+    builder = DiagramBuilder()
+    seq = builder.AddSystem(
+        _Seq(StaticPlan(stages, airspeed=V_A), trigger_radius=1.0, time_step=0.01)
+    )
+    # The position jumps onto each triggering point in turn, between the sequencer's updates.
+    points = [(-90.0, 200.0), stages[0].trigger, stages[1].trigger, stages[2].trigger]
+    traj = PiecewisePolynomial.ZeroOrderHold(
+        [0.0, 0.123, 0.31, 0.52, 100.0], np.array(points + points[-1:]).T
+    )
+    position = builder.AddSystem(TrajectorySource(traj))
+    builder.Connect(position.get_output_port(), seq.get_position_input_port())
+    c1 = builder.AddSystem(ConstantVectorSource([0.0]))
+    builder.Connect(c1.get_output_port(), seq.get_path_parameters_input_port())
+    sim = Simulator(builder.Build())
+    times = []
+
+    def monitor(root):
+        times.append(root.get_time())
+        return EventStatus.Succeeded()
+
+    sim.set_monitor(monitor)
+    status = sim.AdvanceTo(10.0)
+    assert status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition
+    assert status.message() == "complete"
+    # Every step ends on the 0.01 s grid exactly (k · 0.01, as a 100 Hz sensor's events), and the
+    # work is done at every fifth tick: switches at 0.15, 0.35 and completion at 0.55.
+    times = np.array(times)
+    np.testing.assert_array_equal(times, np.round(times / 0.01) * 0.01)
+    ctx = seq.GetMyContextFromRoot(sim.get_context())
+    assert sim.get_context().get_time() == 55 * 0.01
+    np.testing.assert_array_equal(seq.EntryTimes(ctx), [15 * 0.01, 35 * 0.01, -1.0, -1.0])
+    assert seq.GetOutputPort("mission_complete").Eval(ctx)[0] == 1.0
+    assert seq.GetOutputPort("stage").Eval(ctx)[0] == 2.0
+    assert seq.ActiveStage(ctx) == stages[2]
+
+
 def test_static_list_of_stages(plan):
     stages = plan.Stages(0.0)[:3]
-    seq = StageSequencer(stages)
+    seq = _Seq(StaticPlan(stages, airspeed=V_A))
     ctx = seq.CreateDefaultContext()
     _Step1(seq, ctx, stages[0].trigger, 1.0, c1=-500.0)  # c1 has no effect on a static plan
     assert seq.GetOutputPort("stage").Eval(ctx)[0] == 1.0
@@ -307,30 +358,17 @@ def test_kinematic_flight_replans_in_flight(plan):
 
 
 def _Fly(plan, c1, wind, t_max=1000.0):
-    plant_mod = pytest.importorskip("eaplan_drake.plant")
-    guidance_mod = pytest.importorskip("eaplan_drake.guidance")
-    vehicle, guidance = VehicleParams(), GuidanceParams()
+    scenario = Scenario()
+    scenario.wind.speed = float(np.hypot(*wind))
+    scenario.wind.direction_deg = float(np.degrees(np.arctan2(wind[1], wind[0])))
     builder = DiagramBuilder()
-    seq = builder.AddSystem(StageSequencer(plan, initial_c1=c1))
-    plant = builder.AddSystem(plant_mod.FixedWingPlant(vehicle))
-    ctrl = builder.AddSystem(
-        guidance_mod.VectorFieldGuidance(
-            guidance, airspeed=vehicle.airspeed, max_heading_rate=plant_mod.MaxHeadingRate(vehicle)
-        )
+    aircraft = AddGuidedAircraft(
+        builder, scenario, plan, initial_path_parameter=c1, path_parameter=c1
     )
-    w = builder.AddSystem(ConstantVectorSource(np.asarray(wind, dtype=float)))
-    c = builder.AddSystem(ConstantVectorSource([c1]))
-    builder.Connect(w.get_output_port(), plant.GetInputPort("wind"))
-    for name in ("position", "ground_velocity", "heading"):
-        builder.Connect(plant.GetOutputPort(name), ctrl.GetInputPort(name))
-    builder.Connect(plant.GetOutputPort("position"), seq.GetInputPort("position"))
-    builder.Connect(seq.GetOutputPort("path"), ctrl.GetInputPort("path"))
-    builder.Connect(ctrl.get_output_port(), plant.GetInputPort("heading_rate_command"))
-    builder.Connect(c.get_output_port(), seq.GetInputPort("path_parameters"))
+    seq, plant = aircraft.sequencer, aircraft.plant
     logs = {n: LogVectorOutput(seq.GetOutputPort(n), builder, 0.1) for n in ("period", "path")}
     logs["position"] = LogVectorOutput(plant.GetOutputPort("position"), builder, 0.1)
     sim = Simulator(builder.Build())
-    sim.set_monitor(_Stop(seq, seq.GetOutputPort("mission_complete")))
     sim.AdvanceTo(t_max)
     ctx = sim.get_context()
     logs = {n: lg.FindLog(ctx) for n, lg in logs.items()}
@@ -394,7 +432,7 @@ def test_low_quality_survey_is_shorter(plan, reference_flight):
 
 
 def test_authors_plan_file_is_flown_to_completion():
-    plan = LoadPlanFile("reference")
+    plan = LoadPlanFile("reference", VehicleParams(), c1=0.0, k_e=K_E, c1_bounds=(-1000.0, 0.0))
     f = _Fly(plan, 0.0, (5.0, 0.0))
     assert f["complete"] == 1.0
     assert f["t_end"] == pytest.approx(plan.CoverageTime(0.0, V_A, (5.0, 0.0)), rel=0.01)

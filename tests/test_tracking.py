@@ -10,8 +10,8 @@ from eaplan_drake.tracking import FlyTracking, MakeTrackingDiagram, PathError
 
 
 def test_path_error_is_the_normalised_path_function():
-    circle = Circle((0.0, 0.0), 10.0).normalised()
-    line = Line((0.0, 5.0), (0.0, 1.0)).normalised()
+    circle = Circle((0.0, 0.0), 10.0, k_e=0.05).normalised()
+    line = Line((0.0, 5.0), (0.0, 1.0), k_e=0.05).normalised()
     p = np.array([[12.0, 0.0], [3.0, 8.0]])
     d = np.vstack([circle.descriptor(), line.descriptor()])
     np.testing.assert_allclose(PathError(p, d), [circle.value(p[0]), line.value(p[1])])
