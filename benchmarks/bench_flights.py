@@ -5,14 +5,16 @@ does not. Also the planner's share of the flight and the peak memory (each fligh
 subprocess, so peaks don't mix). Speeds are per CPU second of the flight's process
 (``time.process_time``), so that a busy machine slows both sides alike.
 
-    python3 benchmarks/bench_flights.py [--runs 3] [--baseline-tree DIR] [FLIGHT ...]
+    python3 benchmarks/bench_flights.py [--runs 3] [--baseline-tree DIR] [--set KEY=VALUE ...]
+                                        [FLIGHT ...]
 
 FLIGHT: ``plan_I``, ``plan_II``, ``plan_i``, ``plan_ii``, ``plan_I_full`` (plan I with a battery
 ten times larger and no reserve, so the whole c1 = 0 survey, ≈ 767 simulated seconds, is flown).
 With ``--runs N`` every figure is the median of N runs (flights and reference loop interleaved).
 ``--baseline-tree DIR`` also flies each flight with the package found in DIR (e.g. a checkout of
 an older commit, ``git worktree add /tmp/old <commit>``) and prints the speed-up of this tree over
-it, measured in the same run.
+it, measured in the same run. ``--set`` overrides a scenario key of this tree's flights (as
+``simulate --set``), e.g. ``--set simulation.plant=continuous``.
 
 Targets (issue 14): dynamic flights (plan_i, plan_ii) at least 3× the speed of commit 9f6bcff in
 the same run, planner ≤ 20 % of a dynamic flight, peak memory ≤ 150 MB per flight.
@@ -24,15 +26,18 @@ import os
 import statistics
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
 CHILD = """
 import json, resource, sys, time
+from eaplan_drake.params import OverrideFromAssignment
 from eaplan_drake.simulation import LoadNamedScenario, Simulate
 name = sys.argv[1]
-scenario = LoadNamedScenario(name.removesuffix("_full"))
+overrides = [OverrideFromAssignment(a) for a in sys.argv[2:]]
+scenario = LoadNamedScenario(name.removesuffix("_full"), overrides)
 if name.endswith("_full"):  # the whole survey: a battery that cannot run out
     scenario.battery.capacity *= 10.0
     scenario.battery.reserve_soc = 0.0
@@ -69,8 +74,15 @@ def _Run(code: str, args: list[str], tree: str | None) -> dict:
     env = dict(os.environ)
     if tree:
         env["PYTHONPATH"] = tree
+    # From a neutral folder: ``python -c`` puts the working directory first on sys.path, which
+    # would shadow the tree under test with a checkout in the current folder.
     out = subprocess.run(
-        [sys.executable, "-c", code, *args], check=True, capture_output=True, text=True, env=env
+        [sys.executable, "-c", code, *args],
+        check=True,
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=tempfile.gettempdir(),
     ).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -85,6 +97,7 @@ def main() -> None:
     parser.add_argument("flights", nargs="*", default=FLIGHTS)
     parser.add_argument("--runs", type=int, default=1)
     parser.add_argument("--baseline-tree", default=None)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
     unknown = [f for f in args.flights if f not in FLIGHTS]
     if unknown or args.runs < 1:
@@ -97,7 +110,8 @@ def main() -> None:
         reference.append(_Speed(_Run(REFERENCE_CHILD, [REFERENCE_FLIGHT, str(HERE)], None)))
         for name in args.flights:
             for label, tree in trees.items():
-                rows.setdefault((name, label), []).append(_Run(CHILD, [name], tree))
+                extra = args.set if label == "this" else []
+                rows.setdefault((name, label), []).append(_Run(CHILD, [name, *extra], tree))
         print(f"run {run + 1}/{args.runs} done", file=sys.stderr)
     ref = statistics.median(reference)
     print(
