@@ -57,6 +57,7 @@ __all__ = [
     "OutputMatrix",
     "AperiodicProcessNoise",
     "PeriodEstimate",
+    "ProcessNoiseMatrix",
     "EstimatePeriodWithConfidence",
     "StateSize",
 ]
@@ -211,6 +212,23 @@ def AperiodicProcessNoise(order, noise_intensity: float, h: float) -> float:
         return float(noise_intensity) * float(h)
     phi = AperiodicDecay(tau, h)
     return 0.5 * float(noise_intensity) * tau * (1.0 - phi * phi)
+
+
+def ProcessNoiseMatrix(
+    order, process_noise: float, mean_process_noise: float, aperiodic_noise: float, h: float
+) -> np.ndarray:
+    """Q (m×m) [W²] per step h [s]: diag(q_n + q_0, q_n, …, q_n[, Q_dd]).
+
+    q_n = ``process_noise`` [W²] on every Fourier state, q_0 = ``mean_process_noise`` [W²] more
+    on α0, and with an :class:`AugmentedOrder` Q_dd = :func:`AperiodicProcessNoise` of the
+    intensity q_d = ``aperiodic_noise`` [W²/s] on d.
+    """
+    m = StateSize(order)
+    q = np.full(m, float(process_noise))
+    q[0] += float(mean_process_noise)
+    if _Structure(order)[1] is not None:
+        q[-1] = AperiodicProcessNoise(order, aperiodic_noise, h)
+    return np.diag(q)
 
 
 def FreeResponseMatrix(order, period: float, step: float, num_points: int) -> np.ndarray:

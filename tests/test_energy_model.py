@@ -391,6 +391,23 @@ def test_augmented_order_sizes_and_matrices():
         AugmentedOrder(-1, 5.0)
 
 
+def test_process_noise_matrix_is_the_models_q():
+    from eaplan_drake.energy_model import AugmentedOrder, ProcessNoiseMatrix
+
+    np.testing.assert_array_equal(
+        ProcessNoiseMatrix(2, 1e-6, 3e-6, 0.5, 0.01), np.diag([4e-6, 1e-6, 1e-6, 1e-6, 1e-6])
+    )
+    tau, q_d, h = 20.0, 0.3, 0.5
+    phi = math.exp(-h / tau)
+    Q = ProcessNoiseMatrix(AugmentedOrder(1, tau), 1e-5, 0.0, q_d, h)
+    np.testing.assert_allclose(
+        Q, np.diag([1e-5, 1e-5, 1e-5, 0.5 * q_d * tau * (1.0 - phi * phi)]), rtol=1e-14, atol=0
+    )
+    assert ProcessNoiseMatrix(AugmentedOrder(0, math.inf), 0.0, 0.0, 0.2, 0.5)[1, 1] == (
+        pytest.approx(0.1)
+    )
+
+
 def test_free_response_decays_the_aperiodic_load_as_its_model_says():
     from eaplan_drake.energy_model import AugmentedOrder, FourierOutputMatrix, FreeResponseMatrix
 
