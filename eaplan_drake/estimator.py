@@ -68,11 +68,11 @@ def KalmanPredict(q, P, Ad, Q):
 
     A known input B Δg enters in :func:`KalmanStep`, before the measurement update.
     """
-    P = Ad @ P @ Ad.T
-    P += P.T  # numpy buffers the overlapping operand: P + Pᵀ
+    P = Ad.dot(P).dot(Ad.T)  # ndarray.dot: the cheapest call for small matrices
+    P = P + P.T
     P *= 0.5
     P += Q
-    return Ad @ q, P
+    return Ad.dot(q), P
 
 
 def KalmanGain(P, c, R: float):
@@ -80,8 +80,8 @@ def KalmanGain(P, c, R: float):
 
     ``c`` is the output row C, shape (m,) [-]; P [W²] (m×m); R [W²].
     """
-    u = P @ c
-    s = float(c @ u) + R
+    u = P.dot(c)
+    s = float(c.dot(u)) + R
     return u / s, u, s
 
 
@@ -98,7 +98,7 @@ def KalmanUpdate(q, P, c, R: float, z: float):
         return q, P
     c = c.ravel()
     k, u, s = KalmanGain(P, c, R)
-    q = q + k * (z - float(c @ q))
+    q = q + k * (z - float(c.dot(q)))
     M = k[:, None] * (u - (0.5 * s) * k)
     return q, P - (M + M.T)
 
@@ -112,8 +112,10 @@ def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float):
     :func:`~eaplan_drake.energy_model.ProcessNoiseMatrix`), ``c`` the output row C, R [W²].
     Returns the a priori (q̂⁻, P⁻) for t_{k+1} as new arrays. B = e_0 (Δg enters α0 only).
     """
-    q = np.array(q_prior, dtype=float)
-    q[0] += dg
+    q = np.asarray(q_prior, dtype=float)
+    if dg != 0.0:
+        q = q.copy()
+        q[0] += dg
     q, P = KalmanUpdate(q, P_prior, c, R, z)
     return KalmanPredict(q, P, Ad, Q)
 
