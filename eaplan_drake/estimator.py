@@ -35,32 +35,25 @@ import copy
 import math
 
 import numpy as np
-from pydrake.common.containers import namedview
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from eaplan_drake.energy_model import (
-    DiscreteEnergyMatrices,
+    InputMemory,
+    KnownInputStep,
     OutputMatrix,
     ProcessNoiseMatrix,
     StateSize,
+    TransitionMatrices,
 )
 from eaplan_drake.params import EstimatorParams
 
 __all__ = [
     "EnergyEstimator",
-    "EstimatorMemory",
     "KalmanGain",
     "KalmanPredict",
     "KalmanStep",
     "KalmanUpdate",
 ]
-
-EstimatorMemory = namedview("EstimatorMemory", ["previous_computation_power", "period"])
-"""The estimator's memory group: g at the previous step [W] (NaN before the first finite one)
-and the period T in use [s]."""
-
-_MAX_CACHED_PERIODS = 64
-"""A_d(T) kept for this many periods T before the cache is emptied (dynamic plans change T)."""
 
 
 def KalmanPredict(q, P, Ad, Q):
@@ -135,8 +128,8 @@ class EnergyEstimator(LeafSystem):
     aperiodic load d last) [W],
     ``estimated_power`` ŷ = C q̂ [W], ``covariance_trace`` tr P [W²], ``mean_power_variance``
     P_00 = Var(α̂0) [W²].
-    Discrete state, three groups: q̂⁻ (m) [W]; P⁻ row-major (m²) [W²]; :data:`EstimatorMemory`
-    (g at the previous step [W], T in use [s]).
+    Discrete state, three groups: q̂⁻ (m) [W]; P⁻ row-major (m²) [W²];
+    :data:`~eaplan_drake.energy_model.InputMemory` (g at the previous step [W], T in use [s]).
 
     .. pydrake_system::
 
@@ -198,7 +191,7 @@ class EnergyEstimator(LeafSystem):
             self._h,
         )
         self._R = float(estimator.measurement_noise)
-        self._Ad_cache = {}
+        self._transition = TransitionMatrices(model, self._h)
         self._q_index = self.DeclareDiscreteState(q0)
         self._P_index = self.DeclareDiscreteState(
             (estimator.initial_covariance * np.eye(m)).reshape(-1)
@@ -246,22 +239,12 @@ class EnergyEstimator(LeafSystem):
         m = self._m
         return context.get_discrete_state(self._P_index).get_value().reshape(m, m).copy()
 
-    def Memory(self, context: Context) -> EstimatorMemory:
+    def Memory(self, context: Context) -> InputMemory:
         """A copy of the memory group (g at the previous step [W], T in use [s])."""
-        return EstimatorMemory(context.get_discrete_state(self._memory_index).CopyToVector())
-
-    def _TransitionMatrix(self, period: float) -> np.ndarray:
-        """A_d(T), a pure function of T, cached per T."""
-        Ad = self._Ad_cache.get(period)
-        if Ad is None:
-            if len(self._Ad_cache) >= _MAX_CACHED_PERIODS:
-                self._Ad_cache.clear()
-            Ad = DiscreteEnergyMatrices(self._model, period, self._h)[0]
-            self._Ad_cache[period] = Ad
-        return Ad
+        return InputMemory(context.get_discrete_state(self._memory_index).CopyToVector())
 
     def _Initialize(self, context: Context, discrete_state: DiscreteValues) -> None:
-        memory = EstimatorMemory(discrete_state.get_mutable_value(self._memory_index))
+        memory = InputMemory(discrete_state.get_mutable_value(self._memory_index))
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
         memory.previous_computation_power = g if math.isfinite(g) else np.nan
@@ -277,18 +260,10 @@ class EnergyEstimator(LeafSystem):
         z = self._measured_port.Eval(context)[0]
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
-        dg = 0.0
-        if math.isfinite(g):
-            g_prev = memory[0]
-            if g != g_prev:
-                if math.isfinite(g_prev):
-                    dg = g - g_prev
-                memory[0] = g
-        if T > 0.0 and math.isfinite(T) and T != memory[1]:
-            memory[1] = T
+        dg = KnownInputStep(memory, g, T)
         m = self._m
         q_next, P_next = KalmanStep(
-            q, P.reshape(m, m), z, dg, self._TransitionMatrix(memory[1]), self._c, self._Q, self._R
+            q, P.reshape(m, m), z, dg, self._transition(memory[1]), self._c, self._Q, self._R
         )
         q[:] = q_next
         P[:] = P_next.reshape(-1)
