@@ -40,6 +40,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
+from pydrake.common.containers import namedview
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 __all__ = [
@@ -54,11 +55,15 @@ __all__ = [
     "FourierOutputMatrix",
     "FourierStateFromCoefficients",
     "FreeResponseMatrix",
+    "InputMemory",
+    "KnownInputStep",
     "OutputMatrix",
     "AperiodicProcessNoise",
     "PeriodEstimate",
+    "ProcessNoiseMatrix",
     "EstimatePeriodWithConfidence",
     "StateSize",
+    "TransitionMatrices",
 ]
 
 
@@ -211,6 +216,65 @@ def AperiodicProcessNoise(order, noise_intensity: float, h: float) -> float:
         return float(noise_intensity) * float(h)
     phi = AperiodicDecay(tau, h)
     return 0.5 * float(noise_intensity) * tau * (1.0 - phi * phi)
+
+
+def ProcessNoiseMatrix(
+    order, process_noise: float, mean_process_noise: float, aperiodic_noise: float, h: float
+) -> np.ndarray:
+    """Q (m×m) [W²] per step h [s]: diag(q_n + q_0, q_n, …, q_n[, Q_dd]).
+
+    q_n = ``process_noise`` [W²] on every Fourier state, q_0 = ``mean_process_noise`` [W²] more
+    on α0, and with an :class:`AugmentedOrder` Q_dd = :func:`AperiodicProcessNoise` of the
+    intensity q_d = ``aperiodic_noise`` [W²/s] on d.
+    """
+    m = StateSize(order)
+    q = np.full(m, float(process_noise))
+    q[0] += float(mean_process_noise)
+    if _Structure(order)[1] is not None:
+        q[-1] = AperiodicProcessNoise(order, aperiodic_noise, h)
+    return np.diag(q)
+
+
+InputMemory = namedview("InputMemory", ["previous_computation_power", "period"])
+"""Discrete-state group of the systems driven by g and T: g at the previous update [W] (NaN
+before the first finite one) and the period T in use [s]."""
+
+
+def KnownInputStep(memory, g: float, T: float) -> float:
+    """Δg_k [W] of the input B Δg at an update, and the memory moved on (in place).
+
+    ``memory`` is an :data:`InputMemory` array [g_prev, T]: Δg = g − g_prev when both are finite
+    (else 0); a finite g becomes g_prev; a finite T > 0 [s] becomes the period in use (else the
+    old one is kept).
+    """
+    dg = 0.0
+    if math.isfinite(g):
+        g_prev = memory[0]
+        if g != g_prev:
+            if math.isfinite(g_prev):
+                dg = g - g_prev
+            memory[0] = g
+    if T > 0.0 and math.isfinite(T) and T != memory[1]:
+        memory[1] = T
+    return dg
+
+
+class TransitionMatrices:
+    """A_d(T) of :func:`DiscreteEnergyMatrices` for a fixed model and step h [s], cached per T
+    (a pure function of T; the cache is emptied after ``max_periods`` periods)."""
+
+    def __init__(self, order, h: float, max_periods: int = 64):
+        self._order, self._h, self._max = order, float(h), int(max_periods)
+        self._cache = {}
+
+    def __call__(self, period: float) -> np.ndarray:
+        Ad = self._cache.get(period)
+        if Ad is None:
+            if len(self._cache) >= self._max:
+                self._cache.clear()
+            Ad = DiscreteEnergyMatrices(self._order, period, self._h)[0]
+            self._cache[period] = Ad
+        return Ad
 
 
 def FreeResponseMatrix(order, period: float, step: float, num_points: int) -> np.ndarray:
@@ -413,8 +477,9 @@ class FourierEnergyModel(LeafSystem):
     re-discretises A_d and only changes the rotation speed from then on (q is kept, so y has no
     jump). Non-finite inputs are ignored (Δg = 0, T kept).
 
-    Discrete state: [q (m), g at the previous update, T in use]; an initialization event takes
-    g and T from the inputs at t = 0. Outputs depend on the state only.
+    Discrete state, two groups: q (m) [W] and :data:`InputMemory` (g at the previous update [W],
+    T in use [s]); an initialization event takes g and T from the inputs at t = 0. Outputs
+    depend on the state only.
 
     .. pydrake_system::
 
@@ -450,21 +515,22 @@ class FourierEnergyModel(LeafSystem):
         self._order = r
         self._m = m
         self._h = h
-        self._Ad_period = T0
-        self._Ad = DiscreteFourierMatrices(r, T0, h)[0]
+        self._transition = TransitionMatrices(r, h)
         self._alpha = np.arange(1, m, 2)  # indices of α_1..α_r in q
-        state = np.concatenate([q0, [np.nan, T0]])
-        self._state_index = self.DeclareDiscreteState(state)
+        self._q_index = self.DeclareDiscreteState(q0)
+        self._memory_index = self.DeclareDiscreteState(np.array([np.nan, T0]))
         self._computation_power_port = self.DeclareVectorInputPort("computation_power", 1)
         self._period_port = self.DeclareVectorInputPort("period", 1)
         self.DeclareInitializationDiscreteUpdateEvent(self._Initialize)
         self.DeclarePeriodicDiscreteUpdateEvent(h, 0.0, self._Update)
-        xd = {self.xd_ticket()}
-        self._energy_coefficients_port = self.DeclareVectorOutputPort(
-            "energy_coefficients", m, self._CalcCoefficients, prerequisites_of_calc=xd
+        self._energy_coefficients_port = self.DeclareStateOutputPort(
+            "energy_coefficients", self._q_index
         )
         self._power_port = self.DeclareVectorOutputPort(
-            "power", 1, self._CalcPower, prerequisites_of_calc=xd
+            "power",
+            1,
+            self._CalcPower,
+            prerequisites_of_calc={self.discrete_state_ticket(self._q_index)},
         )
 
     @property
@@ -475,43 +541,28 @@ class FourierEnergyModel(LeafSystem):
     def time_step(self) -> float:
         return self._h
 
-    def _TransitionMatrix(self, period: float) -> np.ndarray:
-        if period != self._Ad_period:  # cache of a pure function of T
-            self._Ad = DiscreteFourierMatrices(self._order, period, self._h)[0]
-            self._Ad_period = period
-        return self._Ad
+    def Memory(self, context: Context) -> InputMemory:
+        """A copy of the memory group (g at the previous update [W], T in use [s])."""
+        return InputMemory(context.get_discrete_state(self._memory_index).CopyToVector())
 
     def _Initialize(self, context: Context, discrete_state: DiscreteValues) -> None:
-        x = context.get_discrete_state(self._state_index).get_value().copy()
+        memory = InputMemory(discrete_state.get_mutable_value(self._memory_index))
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
-        x[self._m] = g if math.isfinite(g) else np.nan
+        memory.previous_computation_power = g if math.isfinite(g) else np.nan
         if math.isfinite(T) and T > 0.0:
-            x[self._m + 1] = T
-        discrete_state.get_mutable_vector(self._state_index).SetFromVector(x)
+            memory.period = T
 
     def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
-        m = self._m
-        x = context.get_discrete_state(self._state_index).get_value()
+        # Drake fills discrete_state with the current values before this handler: in place.
+        q = discrete_state.get_mutable_value(self._q_index)
+        memory = discrete_state.get_mutable_value(self._memory_index)
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
-        if not (T > 0.0 and math.isfinite(T)):
-            T = x[m + 1]
-        new = np.empty(m + 2)
-        new[:m] = self._TransitionMatrix(T) @ x[:m]
-        g_prev = x[m]
-        if math.isfinite(g):
-            if math.isfinite(g_prev):
-                new[0] += g - g_prev
-            new[m] = g
-        else:
-            new[m] = g_prev
-        new[m + 1] = T
-        discrete_state.get_mutable_vector(self._state_index).SetFromVector(new)
-
-    def _CalcCoefficients(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(context.get_discrete_state(self._state_index).get_value()[: self._m])
+        dg = KnownInputStep(memory, g, T)
+        q[:] = self._transition(memory[1]).dot(q)
+        q[0] += dg
 
     def _CalcPower(self, context: Context, output: BasicVector) -> None:
-        x = context.get_discrete_state(self._state_index).get_value()
-        output.SetAtIndex(0, x[0] + x[self._alpha].sum())
+        q = context.get_discrete_state(self._q_index).get_value()
+        output.SetAtIndex(0, q[0] + q[self._alpha].sum())

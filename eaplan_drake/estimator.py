@@ -17,71 +17,99 @@ Q = diag(q_n, …, q_n, Q_dd) with Q_dd = (q_d τ/2)(1 − φ²) (see
 One filter step at t_k (a priori estimate q̂⁻, P⁻ for t_k, without the jump Δg_k yet):
 
     input:    q̂⁻ ← q̂⁻ + B Δg_k                          (known input; P unchanged)
-    update:   s = C P⁻ Cᵀ + R,  K = P⁻ Cᵀ / s,
-              q̂ = q̂⁻ + K (z_k − C q̂⁻),
-              P = (I − K C) P⁻ (I − K C)ᵀ + K R Kᵀ       (Joseph form), symmetrised
+    update:   u = P⁻ Cᵀ,  s = C u + R,  k = u / s,
+              q̂ = q̂⁻ + k (z_k − C q̂⁻),
+              P = (I − k C) P⁻ (I − k C)ᵀ + k R kᵀ = P⁻ − (k uᵀ + u kᵀ) + s k kᵀ
+                = P⁻ − (k vᵀ + v kᵀ),  v = u − (s/2) k       (Joseph form as rank-1 terms)
               — skipped (prediction only) when z_k is not finite;
     predict:  q̂⁻ ← A_d q̂,  P⁻ ← A_d P A_dᵀ + Q,  symmetrised.
 
-The authors' filter has the covariance sign flipped ((I + KC)) and never carries P over; this
-one does neither. The Joseph form with a symmetrised P keeps P symmetric positive definite.
+For a scalar measurement the Joseph form needs no m×m product: with u = P⁻Cᵀ it is the
+rank-1 expression above, symmetric to the last bit when P⁻ is (k vᵀ + v kᵀ is computed
+symmetric). The authors' filter has the covariance sign flipped ((I + KC)) and never
+carries P over; this one does neither. The Joseph form with a symmetrised P keeps P symmetric
+positive definite.
 """
 
+import copy
 import math
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from eaplan_drake.energy_model import (
-    AperiodicProcessNoise,
-    DiscreteEnergyMatrices,
+    InputMemory,
+    KnownInputStep,
     OutputMatrix,
+    ProcessNoiseMatrix,
     StateSize,
+    TransitionMatrices,
 )
 from eaplan_drake.params import EstimatorParams
 
 __all__ = [
     "EnergyEstimator",
+    "KalmanGain",
     "KalmanPredict",
     "KalmanStep",
     "KalmanUpdate",
 ]
 
 
-def KalmanPredict(q, P, Ad, Q, B=None, dg: float = 0.0):
-    """Time update: (A_d q + B Δg, A_d P A_dᵀ + Q), P symmetrised."""
-    q = Ad @ q
-    if B is not None and dg != 0.0:
-        q = q + np.reshape(B, -1) * dg
-    P = Ad @ P @ Ad.T + Q
-    return q, 0.5 * (P + P.T)
+def KalmanPredict(q, P, Ad, Q):
+    """Time update: (A_d q, A_d P A_dᵀ + Q) with P symmetrised; q [W], P and Q [W²] (m×m).
+
+    A known input B Δg enters in :func:`KalmanStep`, before the measurement update.
+    """
+    P = Ad.dot(P).dot(Ad.T)  # ndarray.dot: the cheapest call for small matrices
+    P = P + P.T
+    P *= 0.5
+    P += Q
+    return Ad.dot(q), P
 
 
-def KalmanUpdate(q, P, C, R: float, z: float):
-    """Measurement update with a scalar sample z [W], Joseph form, P symmetrised.
+def KalmanGain(P, c, R: float):
+    """(k, u, s) for a scalar measurement: u = P cᵀ [W²], s = c u + R [W²], gain k = u / s [-].
 
-    A non-finite z (a dropped sample) returns (q, P) unchanged.
+    ``c`` is the output row C, shape (m,) [-]; P [W²] (m×m); R [W²].
+    """
+    u = P.dot(c)
+    s = float(c.dot(u)) + R
+    return u / s, u, s
+
+
+def KalmanUpdate(q, P, c, R: float, z: float):
+    """Measurement update with a scalar sample z [W]: Joseph form as rank-1 terms.
+
+    u = P cᵀ, s = c u + R, k = u / s; q̂ = q + k (z − c q),
+    P̂ = (I − k c) P (I − k c)ᵀ + k R kᵀ = P − (k uᵀ + u kᵀ) + s k kᵀ = P − (k vᵀ + v kᵀ) with
+    v = u − (s/2) k (exactly symmetric for a symmetric P; no m×m product). ``c`` is the output
+    row C, (m,) or (1×m) [-]; R [W²]. A non-finite z (a dropped sample) returns (q, P)
+    unchanged (the same objects).
     """
     if not math.isfinite(z):
         return q, P
-    c = np.reshape(C, -1)
-    u = P @ c
-    s = float(c @ u) + R
-    K = u / s
-    q = q + K * (z - float(c @ q))
-    L = np.eye(c.size) - K[:, None] * c
-    P = L @ P @ L.T + (R * K)[:, None] * K
-    return q, 0.5 * (P + P.T)
+    c = c.ravel()
+    k, u, s = KalmanGain(P, c, R)
+    q = q + k * (z - float(c.dot(q)))
+    M = k[:, None] * (u - (0.5 * s) * k)
+    return q, P - (M + M.T)
 
 
-def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, C, Q, R: float):
+def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float):
     """One filter step at t_k: add B Δg_k to α0, update with z_k, predict to t_{k+1}.
 
-    Returns the a priori (q̂⁻, P⁻) for t_{k+1}. B = e_0 (Δg enters α0 only).
+    (q_prior [W], P_prior [W²]) is the a priori estimate at t_k, z_k [W] the sample (non-finite:
+    prediction only), Δg_k [W] the known change of the computation power, A_d = A_d(T) and
+    Q [W²] (m×m) precomputed (:func:`~eaplan_drake.energy_model.DiscreteEnergyMatrices`,
+    :func:`~eaplan_drake.energy_model.ProcessNoiseMatrix`), ``c`` the output row C, R [W²].
+    Returns the a priori (q̂⁻, P⁻) for t_{k+1} as new arrays. B = e_0 (Δg enters α0 only).
     """
-    q = np.array(q_prior, dtype=float)
-    q[0] += dg
-    q, P = KalmanUpdate(q, P_prior, C, R, z)
+    q = np.asarray(q_prior, dtype=float)
+    if dg != 0.0:
+        q = q.copy()
+        q[0] += dg
+    q, P = KalmanUpdate(q, P_prior, c, R, z)
     return KalmanPredict(q, P, Ad, Q)
 
 
@@ -93,14 +121,15 @@ class EnergyEstimator(LeafSystem):
     t_k applies one :func:`KalmanStep` with z_k = ``measured_power`` [W] (non-finite: prediction
     only), Δg_k = change of ``computation_power`` [W] since the previous step (known input through
     B, so a commanded change is followed without a transient) and A_d for the ``period`` input T
-    [s] (re-discretised when T changes; non-finite or non-positive T is ignored). Q = q_n I and R
-    from :class:`EstimatorParams`; P(0) = p0 I.
+    [s] (re-discretised when T changes, kept per T; non-finite or non-positive T is ignored).
+    Q = q_n I (+ q_0 on α0, Q_dd on d) and R from :class:`EstimatorParams`; P(0) = p0 I.
 
     Outputs (from the state only): ``energy_coefficients`` q̂ (m = 2r + 1, or 2r + 2 with the
     aperiodic load d last) [W],
     ``estimated_power`` ŷ = C q̂ [W], ``covariance_trace`` tr P [W²], ``mean_power_variance``
     P_00 = Var(α̂0) [W²].
-    Discrete state (one vector): [q̂ (m), P row-major (m²), g at the previous step, T in use].
+    Discrete state, three groups: q̂⁻ (m) [W]; P⁻ row-major (m²) [W²];
+    :data:`~eaplan_drake.energy_model.InputMemory` (g at the previous step [W], T in use [s]).
 
     .. pydrake_system::
 
@@ -130,6 +159,7 @@ class EnergyEstimator(LeafSystem):
                 f"estimator: must be an EstimatorParams, got {type(estimator).__name__}"
             )
         estimator.Validate("estimator")
+        estimator = copy.deepcopy(estimator)
         StateSize(order)  # checks the Fourier order r
         model = estimator.ModelOrder(order)
         m = StateSize(model)
@@ -153,37 +183,38 @@ class EnergyEstimator(LeafSystem):
         self._h = 1.0 / estimator.rate
         self._params = estimator
         self._c = OutputMatrix(model)[0]
-        self._q_diag = np.full(m, float(estimator.process_noise))
-        self._q_diag[0] += float(estimator.mean_process_noise)
-        if m % 2 == 0:
-            self._q_diag[-1] = AperiodicProcessNoise(model, estimator.aperiodic_noise, self._h)
-        self._R = float(estimator.measurement_noise)
-        self._eye = np.eye(m)
-        self._Ad_period = T0
-        self._Ad = DiscreteEnergyMatrices(model, T0, self._h)[0]
-        self._AdT = self._Ad.T.copy()
-        self._diag = np.arange(m) * (m + 1)  # flat indices of diag(P)
-        state = np.concatenate(
-            [q0, (estimator.initial_covariance * np.eye(m)).reshape(-1), [np.nan, T0]]
+        self._Q = ProcessNoiseMatrix(
+            model,
+            estimator.process_noise,
+            estimator.mean_process_noise,
+            estimator.aperiodic_noise,
+            self._h,
         )
-        self._state_index = self.DeclareDiscreteState(state)
+        self._R = float(estimator.measurement_noise)
+        self._transition = TransitionMatrices(model, self._h)
+        self._q_index = self.DeclareDiscreteState(q0)
+        self._P_index = self.DeclareDiscreteState(
+            (estimator.initial_covariance * np.eye(m)).reshape(-1)
+        )
+        self._memory_index = self.DeclareDiscreteState(np.array([np.nan, T0]))
         self._measured_port = self.DeclareVectorInputPort("measured_power", 1)
         self._computation_power_port = self.DeclareVectorInputPort("computation_power", 1)
         self._period_port = self.DeclareVectorInputPort("period", 1)
         self.DeclareInitializationDiscreteUpdateEvent(self._Initialize)
         self.DeclarePeriodicDiscreteUpdateEvent(self._h, 0.0, self._Update)
-        xd = {self.xd_ticket()}
-        self._energy_coefficients_port = self.DeclareVectorOutputPort(
-            "energy_coefficients", m, self._CalcCoefficients, prerequisites_of_calc=xd
+        q_ticket = {self.discrete_state_ticket(self._q_index)}
+        P_ticket = {self.discrete_state_ticket(self._P_index)}
+        self._energy_coefficients_port = self.DeclareStateOutputPort(
+            "energy_coefficients", self._q_index
         )
         self._estimated_power_port = self.DeclareVectorOutputPort(
-            "estimated_power", 1, self._CalcPower, prerequisites_of_calc=xd
+            "estimated_power", 1, self._CalcPower, prerequisites_of_calc=q_ticket
         )
         self._covariance_trace_port = self.DeclareVectorOutputPort(
-            "covariance_trace", 1, self._CalcTrace, prerequisites_of_calc=xd
+            "covariance_trace", 1, self._CalcTrace, prerequisites_of_calc=P_ticket
         )
         self._mean_power_variance_port = self.DeclareVectorOutputPort(
-            "mean_power_variance", 1, self._CalcMeanVariance, prerequisites_of_calc=xd
+            "mean_power_variance", 1, self._CalcMeanVariance, prerequisites_of_calc=P_ticket
         )
 
     @property
@@ -206,72 +237,45 @@ class EnergyEstimator(LeafSystem):
     def Covariance(self, context: Context) -> np.ndarray:
         """P⁻ (m×m) [W²] held in the context's state."""
         m = self._m
-        x = context.get_discrete_state(self._state_index).get_value()
-        return x[m : m + m * m].reshape(m, m).copy()
+        return context.get_discrete_state(self._P_index).get_value().reshape(m, m).copy()
+
+    def Memory(self, context: Context) -> InputMemory:
+        """A copy of the memory group (g at the previous step [W], T in use [s])."""
+        return InputMemory(context.get_discrete_state(self._memory_index).CopyToVector())
 
     def _Initialize(self, context: Context, discrete_state: DiscreteValues) -> None:
-        m = self._m
-        x = context.get_discrete_state(self._state_index).get_value().copy()
+        memory = InputMemory(discrete_state.get_mutable_value(self._memory_index))
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
-        x[m + m * m] = g if math.isfinite(g) else np.nan
+        memory.previous_computation_power = g if math.isfinite(g) else np.nan
         if math.isfinite(T) and T > 0.0:
-            x[m + m * m + 1] = T
-        discrete_state.get_mutable_vector(self._state_index).SetFromVector(x)
+            memory.period = T
 
     def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
-        m = self._m
-        mm = m * m
-        x = context.get_discrete_state(self._state_index).get_value()
+        # Drake fills discrete_state with the context's current values before this handler
+        # (LeafSystem::DispatchDiscreteVariableUpdateHandler): read and write it in place.
+        q = discrete_state.get_mutable_value(self._q_index)
+        P = discrete_state.get_mutable_value(self._P_index)
+        memory = discrete_state.get_mutable_value(self._memory_index)
         z = self._measured_port.Eval(context)[0]
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
-        if not (T > 0.0 and math.isfinite(T)):
-            T = x[m + mm + 1]
-        if T != self._Ad_period:  # cache of a pure function of T
-            self._Ad = DiscreteEnergyMatrices(self._model, T, self._h)[0]
-            self._AdT = self._Ad.T.copy()
-            self._Ad_period = T
-        Ad, c, R = self._Ad, self._c, self._R
-        q = x[:m].copy()
-        P = x[m : m + mm].reshape(m, m)
-        g_prev = x[m + mm]
-        if math.isfinite(g):
-            if math.isfinite(g_prev):
-                q[0] += g - g_prev
-            g_prev = g
-        # Same arithmetic as KalmanStep (KalmanUpdate then KalmanPredict), inlined for speed.
-        if math.isfinite(z):
-            u = P @ c
-            K = u / (c @ u + R)
-            q += K * (z - c @ q)
-            L = self._eye - K[:, None] * c
-            P = L @ P @ L.T + (R * K)[:, None] * K
-            P = 0.5 * (P + P.T)
-        q = Ad @ q
-        P = Ad @ P @ self._AdT
-        P = 0.5 * (P + P.T)
-        new = np.empty(m + mm + 2)
-        new[:m] = q
-        flat = new[m : m + mm]
-        flat[:] = P.reshape(-1)
-        flat[self._diag] += self._q_diag
-        new[m + mm] = g_prev
-        new[m + mm + 1] = T
-        discrete_state.get_mutable_vector(self._state_index).SetFromVector(new)
-
-    def _CalcCoefficients(self, context: Context, output: BasicVector) -> None:
-        output.SetFromVector(context.get_discrete_state(self._state_index).get_value()[: self._m])
+        dg = KnownInputStep(memory, g, T)
+        m = self._m
+        q_next, P_next = KalmanStep(
+            q, P.reshape(m, m), z, dg, self._transition(memory[1]), self._c, self._Q, self._R
+        )
+        q[:] = q_next
+        P[:] = P_next.reshape(-1)
 
     def _CalcPower(self, context: Context, output: BasicVector) -> None:
-        x = context.get_discrete_state(self._state_index).get_value()
-        output.SetAtIndex(0, float(self._c @ x[: self._m]))
+        q = context.get_discrete_state(self._q_index).get_value()
+        output.SetAtIndex(0, float(self._c @ q))
 
     def _CalcTrace(self, context: Context, output: BasicVector) -> None:
-        m = self._m
-        x = context.get_discrete_state(self._state_index).get_value()
-        output.SetAtIndex(0, float(x[m : m + m * m][self._diag].sum()))
+        P = context.get_discrete_state(self._P_index).get_value()
+        output.SetAtIndex(0, float(P[:: self._m + 1].sum()))
 
     def _CalcMeanVariance(self, context: Context, output: BasicVector) -> None:
-        x = context.get_discrete_state(self._state_index).get_value()
-        output.SetAtIndex(0, float(x[self._m]))  # P_00: Var(α̂0) [W²]
+        P = context.get_discrete_state(self._P_index).get_value()
+        output.SetAtIndex(0, float(P[0]))  # P_00: Var(α̂0) [W²]

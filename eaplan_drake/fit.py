@@ -11,9 +11,11 @@ the aperiodic AR(1) load d (time constant τ [s], intensity q_d [W²/s]), sample
     ℓ(θ) = −½ Σ_{k ≥ k_0} (log 2π s_k + e_k² / s_k),   e_k = z_k − C q̂⁻_k,  s_k = C P⁻_k Cᵀ + R,
 
 over θ = (log R, log q_n, log q_d, log τ) with a deterministic Nelder–Mead search, where (q̂⁻, P⁻)
-come from the Kalman filter of :mod:`eaplan_drake.estimator` (Joseph form; the same arithmetic
-as :func:`~eaplan_drake.estimator.KalmanUpdate` / :func:`~eaplan_drake.estimator.KalmanPredict`,
-inlined for speed and tested against them). The first k_0 samples (one
+come from the Kalman filter of :mod:`eaplan_drake.estimator` (its gain
+:func:`~eaplan_drake.estimator.KalmanGain`, Q from
+:func:`~eaplan_drake.energy_model.ProcessNoiseMatrix`; tested against
+:func:`~eaplan_drake.estimator.KalmanUpdate` / :func:`~eaplan_drake.estimator.KalmanPredict`).
+The first k_0 samples (one
 period, at most a fifth of the record) are the filter's start-up from a diffuse prior and are left
 out. From then on the filter runs with the steady-state gain (:func:`SteadyStateCovariance`,
 the time-invariant filter's limit; this makes ℓ cheap and is the standard steady-state
@@ -37,13 +39,14 @@ import math
 import numpy as np
 
 from eaplan_drake.energy_model import (
-    AperiodicProcessNoise,
     AugmentedOrder,
     DiscreteEnergyMatrices,
     FitFourierSeries,
     OutputMatrix,
+    ProcessNoiseMatrix,
     StateSize,
 )
+from eaplan_drake.estimator import KalmanGain
 
 __all__ = [
     "BASELINES",
@@ -186,15 +189,11 @@ def FilterPowerSeries(
     Ad, _ = DiscreteEnergyMatrices(model, period, time_step)
     c = OutputMatrix(model)[0]
     m = c.size
-    qd = np.full(m, float(noise.process_noise))
-    qd[0] += float(noise.mean_process_noise)
-    if isinstance(model, AugmentedOrder):
-        qd[-1] = AperiodicProcessNoise(model, noise.aperiodic_noise, time_step)
+    Q = ProcessNoiseMatrix(
+        model, noise.process_noise, noise.mean_process_noise, noise.aperiodic_noise, time_step
+    )
     R = float(noise.measurement_noise)
-    P = SteadyStateCovariance(Ad, c, np.diag(qd), R)
-    u = P @ c
-    s = float(c @ u) + R
-    K = u / s
+    K, _, s = KalmanGain(SteadyStateCovariance(Ad, c, Q, R), c, R)
     F = Ad - np.outer(Ad @ K, c)  # q⁻ ← A_d (I − K c) q⁻ + A_d K z
     G = Ad @ K
     q0 = _InitialState(z, time_step, model, period) if initial_state is None else initial_state

@@ -316,7 +316,7 @@ def test_model_new_period_takes_effect_without_jump():
     q_now = model.GetOutputPort("energy_coefficients").Eval(context)
     Ad2, _ = DiscreteFourierMatrices(3, T2, h)
     np.testing.assert_allclose(q_now, np.linalg.matrix_power(Ad2, 1000) @ q_switch, atol=1e-10)
-    assert context.get_discrete_state(0).get_value()[-1] == T2
+    assert model.Memory(context).period == T2
 
 
 def test_model_ignores_non_finite_inputs():
@@ -389,6 +389,38 @@ def test_augmented_order_sizes_and_matrices():
         AugmentedOrder(3, 0.0)
     with pytest.raises(ValueError, match="order"):
         AugmentedOrder(-1, 5.0)
+
+
+def test_known_input_step_and_transition_cache():
+    from eaplan_drake.energy_model import InputMemory, KnownInputStep, TransitionMatrices
+
+    memory = InputMemory(np.array([np.nan, 46.0]))
+    assert KnownInputStep(memory, 5.0, 46.0) == 0.0  # first finite g: no jump
+    assert memory.previous_computation_power == 5.0
+    assert KnownInputStep(memory, 7.5, 30.0) == 2.5 and memory.period == 30.0
+    assert KnownInputStep(memory, np.nan, np.inf) == 0.0  # ignored: kept
+    assert memory.previous_computation_power == 7.5 and memory.period == 30.0
+    assert KnownInputStep(memory, 6.0, -1.0) == -1.5 and memory.period == 30.0
+    cache = TransitionMatrices(3, 0.01, max_periods=2)
+    for T in (46.0, 30.0, 46.0, 23.0):
+        np.testing.assert_array_equal(cache(T), DiscreteFourierMatrices(3, T, 0.01)[0])
+
+
+def test_process_noise_matrix_is_the_models_q():
+    from eaplan_drake.energy_model import AugmentedOrder, ProcessNoiseMatrix
+
+    np.testing.assert_array_equal(
+        ProcessNoiseMatrix(2, 1e-6, 3e-6, 0.5, 0.01), np.diag([4e-6, 1e-6, 1e-6, 1e-6, 1e-6])
+    )
+    tau, q_d, h = 20.0, 0.3, 0.5
+    phi = math.exp(-h / tau)
+    Q = ProcessNoiseMatrix(AugmentedOrder(1, tau), 1e-5, 0.0, q_d, h)
+    np.testing.assert_allclose(
+        Q, np.diag([1e-5, 1e-5, 1e-5, 0.5 * q_d * tau * (1.0 - phi * phi)]), rtol=1e-14, atol=0
+    )
+    assert ProcessNoiseMatrix(AugmentedOrder(0, math.inf), 0.0, 0.0, 0.2, 0.5)[1, 1] == (
+        pytest.approx(0.1)
+    )
 
 
 def test_free_response_decays_the_aperiodic_load_as_its_model_says():

@@ -125,9 +125,13 @@ def test_joseph_update_equals_standard_form_and_skips_nan():
         q2, P2 = KalmanUpdate(q, P, C, R, bad)
         assert q2 is q and P2 is P
     Ad = _rotation(3, T_REF, H)
-    q3, P3 = KalmanPredict(q, P, Ad, 1e-6 * np.eye(7), B=np.eye(7)[:, :1], dg=2.0)
-    np.testing.assert_allclose(q3, Ad @ q + 2.0 * np.eye(7)[0], atol=1e-14)
+    q3, P3 = KalmanPredict(q, P, Ad, 1e-6 * np.eye(7))
+    np.testing.assert_allclose(q3, Ad @ q, atol=1e-14)
     np.testing.assert_allclose(P3, Ad @ P @ Ad.T + 1e-6 * np.eye(7), atol=1e-12)
+    assert np.array_equal(P3, P3.T)
+    # Joseph form: (I − KC) P (I − KC)ᵀ + K R Kᵀ written out with m×m products
+    L = np.eye(7) - K @ C
+    np.testing.assert_allclose(P1, L @ P @ L.T + R * K @ K.T, rtol=0.0, atol=1e-12)
 
 
 def test_covariance_stays_symmetric_positive_definite():
@@ -167,6 +171,25 @@ def test_estimator_ports_and_sizes():
     assert est.GetOutputPort("covariance_trace").Eval(context)[0] == pytest.approx(20.0)
     np.testing.assert_array_equal(est.Covariance(context), 4.0 * np.eye(5))
     assert est.time_step == pytest.approx(0.01)
+
+
+def test_estimator_state_groups_and_copied_params():
+    """q̂, P and the memory (g at the previous step, T in use) are separate state groups; the
+    system keeps its own copy of the params."""
+    params = EstimatorParams(initial_covariance=4.0)
+    est = EnergyEstimator(3, T_REF, params, Q_TRUE)
+    params.measurement_noise = 99.0
+    assert est.params.measurement_noise == 0.25 and est.params is not params
+    context = est.CreateDefaultContext()
+    assert context.num_discrete_state_groups() == 3
+    memory = est.Memory(context)
+    assert math.isnan(memory.previous_computation_power) and memory.period == T_REF
+    z, g, periods, _ = _reference_signal(1.0, seed=8)
+    periods[50:] = 30.0
+    g[70:] = 12.0
+    _, _, est, context = _run(z, g, periods, log_outputs=("energy_coefficients",))
+    memory = est.Memory(context)
+    assert memory.previous_computation_power == 12.0 and memory.period == 30.0
 
 
 def test_estimator_bad_arguments():
