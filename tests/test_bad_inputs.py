@@ -491,6 +491,7 @@ def _CheckResultDirectory(final: Path) -> None:
         assert png.startswith(b"\x89PNG") and png.endswith(b"IEND\xaeB`\x82")
 
 
+@pytest.mark.slow
 def test_kill_during_save_leaves_no_half_written_or_orphaned_file(tmp_path):
     import multiprocessing
 
@@ -517,6 +518,7 @@ def test_kill_during_save_leaves_no_half_written_or_orphaned_file(tmp_path):
     assert sorted(p.name for p in final.iterdir()) == ["x"]
 
 
+@pytest.mark.slow
 def test_kill_during_a_run_leaves_no_half_written_file(tmp_path):
     rng = random.Random(11)
     scenario = tmp_path / "short.yaml"

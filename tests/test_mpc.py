@@ -192,6 +192,7 @@ def test_more_uncertainty_or_less_charge_never_raises_the_quality(table):
         assert pb.BruteForce().quality <= base.quality + 1e-12
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["ipopt", "snopt"])
 def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan, solver):
     """Issue 8: the NLP (IPOPT or SNOPT + exact mapping) agrees with enumeration in >= 99 % of

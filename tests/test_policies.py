@@ -42,6 +42,7 @@ class _SlowProgram(MissionProgram):
         return super()._Constraints(x)
 
 
+@pytest.mark.slow
 def test_a_slow_solver_gives_a_bit_identical_flight():
     scenario = _Short("mpc", time_limit=80.0)
     reference = Simulate(scenario)
@@ -56,6 +57,7 @@ def test_a_slow_solver_gives_a_bit_identical_flight():
         np.testing.assert_array_equal(log[name], values, err_msg=name)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [2, 7, 13])
 def test_mpc_completes_seeded_worlds_that_the_lowest_plan_completes(seed):
     world = DrawWorld(Scenario(name="w"), seed)
@@ -70,6 +72,7 @@ def test_mpc_completes_seeded_worlds_that_the_lowest_plan_completes(seed):
     assert set(np.unique(c2)) <= set(TABLE.parameter_grids[0])
 
 
+@pytest.mark.slow
 def test_mpc_completes_a_tight_world_it_lost_when_the_warmup_flew_full_quality():
     # World 77: wind 9.4 m/s, SoC drops of 0.12, 0.014 and 0.056 at 159–195 s; the static lowest
     # plan ends only 0.029 above the reserve. A 40 s warm-up at c1 = 0, c2 = 10 fps spent that
@@ -84,6 +87,7 @@ def test_mpc_completes_a_tight_world_it_lost_when_the_warmup_flew_full_quality()
     assert lost["status"] == "reserve_reached", lost
 
 
+@pytest.mark.slow
 def test_a_fault_that_makes_the_survey_infeasible_is_flagged_and_the_lowest_plan_flown():
     scenario = Scenario(name="infeasible")
     scenario.battery.faults = [BatteryFault(time=150.0, soc_drop=0.45)]
@@ -162,6 +166,7 @@ def _SmallWorld():
     return s
 
 
+@pytest.mark.slow
 def test_hindsight_is_the_best_completing_constant_pair():
     world = _SmallWorld()
     best = FlyHindsight(WithPolicy(world, "hindsight"))

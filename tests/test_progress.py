@@ -153,6 +153,7 @@ def test_cli_simulate_with_replay_writes_the_html_and_a_progress_bar(tmp_path, c
     assert 0.9 < summary["coverage_remaining"] <= 1.0
 
 
+@pytest.mark.slow
 def test_compare_shows_one_bar_and_draws_the_policies_of_a_world(tmp_path, monkeypatch, capsys):
     import eaplan_drake.cli as cli
     import eaplan_drake.simulation as simulation

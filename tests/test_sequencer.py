@@ -312,6 +312,7 @@ def test_static_list_of_stages(plan):
     assert seq.GetOutputPort("stage").Eval(ctx)[0] == 1.0
 
 
+@pytest.mark.slow
 def test_kinematic_flight_completes_with_the_geometric_period_and_time(plan):
     t_end, logs = _FlyStandIn(plan, _Constant(0.0))
     stage = logs["stage"].data()[0]
@@ -394,6 +395,7 @@ def reference_flight(plan):
     return _Fly(plan, 0.0, (5.0, 0.0))
 
 
+@pytest.mark.slow
 def test_reference_survey_completes_in_wind(plan, reference_flight):
     f = reference_flight
     assert f["complete"] == 1.0
@@ -413,6 +415,7 @@ def test_reference_period_settles(plan, reference_flight):
     assert expected == pytest.approx(52.0, abs=0.2)
 
 
+@pytest.mark.slow
 def test_period_in_still_air_is_within_3_s_of_the_papers_46_s(plan):
     f = _Fly(plan, 0.0, (0.0, 0.0))
     assert f["complete"] == 1.0
@@ -421,6 +424,7 @@ def test_period_in_still_air_is_within_3_s_of_the_papers_46_s(plan):
     assert np.all(np.abs(settled - _RepetitionTime(plan, 0.0, (0.0, 0.0))) < 0.2)
 
 
+@pytest.mark.slow
 def test_low_quality_survey_is_shorter(plan, reference_flight):
     f = _Fly(plan, -1000.0, (5.0, 0.0))
     assert f["complete"] == 1.0
@@ -431,6 +435,7 @@ def test_low_quality_survey_is_shorter(plan, reference_flight):
     assert np.all(np.abs(settled - _RepetitionTime(plan, -1000.0, (5.0, 0.0))) < 0.5)
 
 
+@pytest.mark.slow
 def test_authors_plan_file_is_flown_to_completion():
     plan = LoadPlanFile("reference", VehicleParams(), c1=0.0, k_e=K_E, c1_bounds=(-1000.0, 0.0))
     f = _Fly(plan, 0.0, (5.0, 0.0))
