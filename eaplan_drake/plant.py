@@ -87,9 +87,14 @@ _SINC_SERIES_BELOW = 1e-4
 """|θ| below which S(θ) = sin θ / θ is taken from its series 1 − θ²/6 (next term < 1e-18)."""
 
 
+_REAL = (float, int)
+"""The Python scalar types the float branches take (a tuple: ``isinstance`` with it is ≈ 3×
+cheaper than with ``float | int``, and these checks run several times per plant step)."""
+
+
 def _Math(x):
     """``math`` for a float scalar, ``pydrake.math`` for AutoDiffXd and Expression."""
-    return math if isinstance(x, float | int) else pm
+    return math if isinstance(x, _REAL) else pm
 
 
 def MaxHeadingRate(vehicle_or_airspeed, max_bank_angle: float | None = None) -> float:
@@ -170,7 +175,7 @@ def SaturatedHeadingRate(u, max_heading_rate: float):
     """sat(u, ψ̇_max) = max(−ψ̇_max, min(ψ̇_max, u)) [rad/s] (any scalar type); a non-finite float
     u raises :class:`NonFiniteCommandError`."""
     r = max_heading_rate
-    if isinstance(u, float | int):
+    if isinstance(u, _REAL):
         u = CheckedCommand(u)
         return -r if u < -r else (r if u > r else u)
     return pm.max(-r, pm.min(r, u))
