@@ -299,7 +299,7 @@ class _FixedWingPorts:
     # -- outputs ------------------------------------------------------------------------------
 
     def _AppliedRate(self, context):
-        return SaturatedHeadingRate(self._u_port.Eval(context)[0], self._max_rate)
+        return SaturatedHeadingRate(self._u_port.Eval(context).item(0), self._max_rate)
 
     def _CalcMotionPower(self, context, output):
         output.SetAtIndex(0, MotionPower(self._AppliedRate(context), self._power_coefficients))
