@@ -227,7 +227,10 @@ def test_default_state_copied_params_and_bad_vehicle(index):
 
 def test_make_plant_from_the_scenario():
     vehicle = VehicleParams()
-    assert isinstance(MakeFixedWingPlant(vehicle, SimulationParams()), FixedWingPlant)
+    continuous = MakeFixedWingPlant(vehicle, SimulationParams(plant="continuous"))
+    assert isinstance(continuous, FixedWingPlant)
+    default = FixedWingPlant if SimulationParams().plant == "continuous" else FixedWingArcPlant
+    assert isinstance(MakeFixedWingPlant(vehicle, SimulationParams()), default)
     arc = MakeFixedWingPlant(vehicle, SimulationParams(plant="exact_arc", max_step=0.02))
     assert isinstance(arc, FixedWingArcPlant) and arc.time_step() == 0.02
     with pytest.raises(ValueError, match=r"simulation\.plant: must be one of continuous, exact"):
