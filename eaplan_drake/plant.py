@@ -443,9 +443,10 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
     ports: no Python call per read). The ground velocity is computed where the wind is read: by
     the initialization event (``Simulator.Initialize``), by every update (from the new heading)
     and by :meth:`SetPose` when the ``wind`` input has a value; it is NaN in a context none of
-    these has touched. For the constant wind of a flight it equals the continuous plant's
-    ``ground_velocity`` bit for bit; a wind input that changes between steps reaches it at the
-    next update (so, unlike :class:`FixedWingPlant`'s, it is not direct feedthrough of ``wind``).
+    these has touched. For the constant wind of a flight it is, bit for bit, GroundVelocity(ψ, w)
+    of the heading in the state (what a callback output would compute at every read); a wind
+    input that changes between steps reaches it at the next update (so, unlike
+    :class:`FixedWingPlant`'s, it is not direct feedthrough of ``wind``).
 
     Ports and units as :class:`FixedWingPlant`; ``motion_power`` (direct feedthrough of the
     command) is the power of the rate applied over the step that starts now, which a sensor
