@@ -60,6 +60,8 @@ _SPEED_EPS = 1e-6
 """Ground speed below which the course is taken from the heading [m/s]."""
 _ALONG_FLOOR = 0.05
 """Floor of m(ψ)ᵀṗ as a fraction of v_a [-]."""
+_FIELD_EPS_SQ = _FIELD_EPS * _FIELD_EPS
+_SPEED_EPS_SQ = _SPEED_EPS * _SPEED_EPS
 
 
 def CheckWindBelowAirspeed(wind_speed: float, airspeed: float) -> None:
@@ -104,7 +106,7 @@ def DesiredCourseRate(path, position, ground_velocity) -> float:
     a, bx, by, c, s, ke = (float(v) for v in path)
     nx, ny, kp, dx, dy = _Field(a, bx, by, c, s, ke, float(position[0]), float(position[1]))
     dn2 = dx * dx + dy * dy
-    if dn2 <= _FIELD_EPS * _FIELD_EPS:
+    if dn2 <= _FIELD_EPS_SQ:
         return 0.0
     vx, vy = float(ground_velocity[0]), float(ground_velocity[1])
     return _CourseRate(a, s, ke, nx, ny, kp, dx, dy, dn2, vx, vy)
@@ -137,12 +139,12 @@ def HeadingRateCommand(
     cpsi = math.cos(psi)
     spsi = math.sin(psi)
     v2 = vx * vx + vy * vy
-    if v2 > _SPEED_EPS * _SPEED_EPS:
+    if v2 > _SPEED_EPS_SQ:
         v = math.sqrt(v2)
         ux, uy = vx / v, vy / v
     else:
         ux, uy = cpsi, spsi
-    if dn2 > _FIELD_EPS * _FIELD_EPS:
+    if dn2 > _FIELD_EPS_SQ:
         dn = math.sqrt(dn2)
         mx, my = dx / dn, dy / dn
         chid = _CourseRate(a, s, ke, nx, ny, kp, dx, dy, dn2, vx, vy)
@@ -257,7 +259,7 @@ class VectorFieldGuidance(LeafSystem):
             HeadingRateCommand(
                 self._position_port.Eval(context).tolist(),
                 self._ground_velocity_port.Eval(context).tolist(),
-                float(self._heading_port.Eval(context)[0]),
+                self._heading_port.Eval(context).item(0),
                 self._path_port.Eval(context).tolist(),
                 self._airspeed,
                 self._k_d,

@@ -87,9 +87,14 @@ _SINC_SERIES_BELOW = 1e-4
 """|θ| below which S(θ) = sin θ / θ is taken from its series 1 − θ²/6 (next term < 1e-18)."""
 
 
+_REAL = (float, int)
+"""The Python scalar types the float branches take (a tuple: ``isinstance`` with it is ≈ 3×
+cheaper than with ``float | int``, and these checks run several times per plant step)."""
+
+
 def _Math(x):
     """``math`` for a float scalar, ``pydrake.math`` for AutoDiffXd and Expression."""
-    return math if isinstance(x, float | int) else pm
+    return math if isinstance(x, _REAL) else pm
 
 
 def MaxHeadingRate(vehicle_or_airspeed, max_bank_angle: float | None = None) -> float:
@@ -170,7 +175,7 @@ def SaturatedHeadingRate(u, max_heading_rate: float):
     """sat(u, ψ̇_max) = max(−ψ̇_max, min(ψ̇_max, u)) [rad/s] (any scalar type); a non-finite float
     u raises :class:`NonFiniteCommandError`."""
     r = max_heading_rate
-    if isinstance(u, float | int):
+    if isinstance(u, _REAL):
         u = CheckedCommand(u)
         return -r if u < -r else (r if u > r else u)
     return pm.max(-r, pm.min(r, u))
@@ -183,32 +188,32 @@ def FixedWingDynamics(state, heading_rate_command, wind, airspeed, max_heading_r
     return np.array([vx, vy, SaturatedHeadingRate(heading_rate_command, max_heading_rate)])
 
 
-def _Sinc(theta):
-    """S(θ) = sin θ / θ (series 1 − θ²/6 for |θ| < 1e-4; any scalar type)."""
-    value = theta if isinstance(theta, float | int) else theta.value()
-    if abs(value) < _SINC_SERIES_BELOW:
+def _Sinc(theta, m):
+    """S(θ) = sin θ / θ (series 1 − θ²/6 for |θ| < 1e-4); ``m`` is ``_Math(theta)`` (any scalar
+    type: the branch is taken on the value of an AutoDiffXd)."""
+    if abs(theta if m is math else theta.value()) < _SINC_SERIES_BELOW:
         return 1.0 - theta * theta / 6.0
-    return _Math(theta).sin(theta) / theta
+    return m.sin(theta) / theta
 
 
-def ArcStep(state, heading_rate, wind, airspeed, step):
-    """x(t + h) of the unicycle from x = (x, y, ψ) with the heading rate ω [rad/s], the wind w
-    [m/s] and the airspeed v_a [m/s] held over the step h [s], exactly (module docstring):
-    p + v_a h [S(θ) m(ψ) + C(θ) m⊥(ψ)] + w h, ψ + θ, θ = ω h. Float or AutoDiffXd scalars."""
-    psi = state[2]
+def ArcStep(state, heading_rate, wind, airspeed, step) -> tuple:
+    """x(t + h) = (x, y, ψ) of the unicycle from ``state`` = (x, y, ψ) with the heading rate ω
+    [rad/s], the wind w [m/s] and the airspeed v_a [m/s] held over the step h [s], exactly (module
+    docstring): p + v_a h [S(θ) m(ψ) + C(θ) m⊥(ψ)] + w h, ψ + θ, θ = ω h. Float or AutoDiffXd
+    scalars; a tuple of three scalars (no array: the exact-arc plant unpacks it every step)."""
+    x, y, psi = state
     theta = heading_rate * step
     half = 0.5 * theta
-    s = _Sinc(theta)
-    c = _Math(half).sin(half) * _Sinc(half)
+    mt = _Math(theta)
+    s = _Sinc(theta, mt)
+    c = mt.sin(half) * _Sinc(half, mt)
     m = _Math(psi)
     cos_psi, sin_psi = m.cos(psi), m.sin(psi)
     d = airspeed * step
-    return np.array(
-        [
-            state[0] + d * (s * cos_psi - c * sin_psi) + wind[0] * step,
-            state[1] + d * (s * sin_psi + c * cos_psi) + wind[1] * step,
-            psi + theta,
-        ]
+    return (
+        x + d * (s * cos_psi - c * sin_psi) + wind[0] * step,
+        y + d * (s * sin_psi + c * cos_psi) + wind[1] * step,
+        psi + theta,
     )
 
 
@@ -230,29 +235,20 @@ def MakeFixedWingPlant(vehicle: VehicleParams, simulation: SimulationParams):
 
 
 class _FixedWingPorts:
-    """Construction, ports and outputs shared by :class:`FixedWingPlant` and
-    :class:`FixedWingArcPlant` (each defines ``_StateList(context)``: [x, y, ψ], the
-    :data:`AircraftState` fields in order)."""
+    """Parameters, inputs, the ``motion_power`` output and the accessors shared by
+    :class:`FixedWingPlant` and :class:`FixedWingArcPlant` (each declares its own ``position``,
+    ``heading`` and ``ground_velocity`` outputs between :meth:`_DeclareInputs` and
+    :meth:`_DeclareMotionPowerPort`, so the port order is the same)."""
 
-    def _DeclarePorts(self, vehicle: VehicleParams, state_ticket):
+    def _DeclareInputs(self, vehicle: VehicleParams):
         self._vehicle = vehicle
         self._airspeed = float(vehicle.airspeed)
         self._max_rate = MaxHeadingRate(vehicle)
         self._power_coefficients = MotionPowerCoefficients(self._airspeed, vehicle.motion_power)
         self._u_port = self.DeclareVectorInputPort("heading_rate_command", 1)
         self._wind_port = self.DeclareVectorInputPort("wind", 2)
-        self._position_port = self.DeclareVectorOutputPort(
-            "position", 2, self._CalcPosition, prerequisites_of_calc={state_ticket}
-        )
-        self._heading_port = self.DeclareVectorOutputPort(
-            "heading", 1, self._CalcHeading, prerequisites_of_calc={state_ticket}
-        )
-        self._ground_velocity_port = self.DeclareVectorOutputPort(
-            "ground_velocity",
-            2,
-            self._CalcGroundVelocity,
-            prerequisites_of_calc={state_ticket, self._wind_port.ticket()},
-        )
+
+    def _DeclareMotionPowerPort(self):
         self._motion_power_port = self.DeclareVectorOutputPort(
             "motion_power",
             1,
@@ -303,22 +299,7 @@ class _FixedWingPorts:
     # -- outputs ------------------------------------------------------------------------------
 
     def _AppliedRate(self, context):
-        return SaturatedHeadingRate(self._u_port.Eval(context)[0], self._max_rate)
-
-    def _CalcPosition(self, context, output):
-        x, y, _ = self._StateList(context)
-        output.SetAtIndex(0, x)
-        output.SetAtIndex(1, y)
-
-    def _CalcHeading(self, context, output):
-        _, _, heading = self._StateList(context)
-        output.SetAtIndex(0, heading)
-
-    def _CalcGroundVelocity(self, context, output):
-        _, _, heading = self._StateList(context)
-        vx, vy = _GroundVelocity(heading, self._wind_port.Eval(context).tolist(), self._airspeed)
-        output.SetAtIndex(0, vx)
-        output.SetAtIndex(1, vy)
+        return SaturatedHeadingRate(self._u_port.Eval(context).item(0), self._max_rate)
 
     def _CalcMotionPower(self, context, output):
         output.SetAtIndex(0, MotionPower(self._AppliedRate(context), self._power_coefficients))
@@ -371,7 +352,21 @@ def FixedWingPlant_(T):
             vehicle.Validate("vehicle")
             vehicle = copy.deepcopy(vehicle)
             self.DeclareContinuousState(BasicVector_[T](self._InitialState(vehicle)))
-            self._DeclarePorts(vehicle, self.xc_ticket())
+            self._DeclareInputs(vehicle)
+            xc = self.xc_ticket()
+            self._position_port = self.DeclareVectorOutputPort(
+                "position", 2, self._CalcPosition, prerequisites_of_calc={xc}
+            )
+            self._heading_port = self.DeclareVectorOutputPort(
+                "heading", 1, self._CalcHeading, prerequisites_of_calc={xc}
+            )
+            self._ground_velocity_port = self.DeclareVectorOutputPort(
+                "ground_velocity",
+                2,
+                self._CalcGroundVelocity,
+                prerequisites_of_calc={xc, self._wind_port.ticket()},
+            )
+            self._DeclareMotionPowerPort()
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other._vehicle, converter=converter)
@@ -384,6 +379,22 @@ def FixedWingPlant_(T):
 
         def _StateList(self, context):
             return context.get_continuous_state_vector().CopyToVector().tolist()
+
+        def _CalcPosition(self, context, output):
+            x, y, _ = self._StateList(context)
+            output.SetAtIndex(0, x)
+            output.SetAtIndex(1, y)
+
+        def _CalcHeading(self, context, output):
+            _, _, heading = self._StateList(context)
+            output.SetAtIndex(0, heading)
+
+        def _CalcGroundVelocity(self, context, output):
+            _, _, heading = self._StateList(context)
+            wind = self._wind_port.Eval(context).tolist()
+            vx, vy = _GroundVelocity(heading, wind, self._airspeed)
+            output.SetAtIndex(0, vx)
+            output.SetAtIndex(1, vy)
 
         def DoCalcTimeDerivatives(self, context, derivatives):
             derivatives.SetFromVector(
@@ -425,10 +436,21 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
         step: h [s], > 0 (the scenario's ``simulation.max_step``; make every other rate an integer
             multiple of it so event times coincide).
 
-    Discrete state (x, y, ψ) [m, m, rad] (:data:`AircraftState`), one group. Ports, units and
-    dependencies as :class:`FixedWingPlant`; ``motion_power`` (direct feedthrough of the command)
-    is the power of the rate applied over the step that starts now, which a sensor sampling at the
-    same instant holds over that step. Float only (no scalar conversion).
+    Discrete state, three named groups: ``position`` (x, y) [m], ``heading`` ψ [rad] (not
+    wrapped) and ``ground_velocity`` ṗ = v_a m(ψ) + w [m/s] (:func:`GroundVelocity`), the first
+    two initialised from ``vehicle.initial_position`` and ``vehicle.initial_heading_deg``. The
+    outputs ``position``, ``heading`` and ``ground_velocity`` are these groups (state output
+    ports: no Python call per read). The ground velocity is computed where the wind is read: by
+    the initialization event (``Simulator.Initialize``), by every update (from the new heading)
+    and by :meth:`SetPose` when the ``wind`` input has a value; it is NaN in a context none of
+    these has touched. For the constant wind of a flight it is, bit for bit, GroundVelocity(ψ, w)
+    of the heading in the state (what a callback output would compute at every read); a wind
+    input that changes between steps reaches it at the next update (so, unlike
+    :class:`FixedWingPlant`'s, it is not direct feedthrough of ``wind``).
+
+    Ports and units as :class:`FixedWingPlant`; ``motion_power`` (direct feedthrough of the
+    command) is the power of the rate applied over the step that starts now, which a sensor
+    sampling at the same instant holds over that step. Float only (no scalar conversion).
 
     .. pydrake_system::
 
@@ -450,30 +472,60 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
             raise ValueError(f"FixedWingArcPlant: step must be > 0 s, got {step!r}")
         vehicle = copy.deepcopy(vehicle)
         self._step = float(step)
-        self._state_index = self.DeclareDiscreteState(self._InitialState(vehicle))
+        pose = self._InitialState(vehicle)
+        self._position_index = self.DeclareDiscreteState(pose[:2])
+        self._heading_index = self.DeclareDiscreteState(pose[2:])
+        self._ground_velocity_index = self.DeclareDiscreteState(np.full(2, np.nan))
+        self.DeclareInitializationDiscreteUpdateEvent(self._Initialize)
         self.DeclarePeriodicDiscreteUpdateEvent(self._step, 0.0, self._Update)
-        self._DeclarePorts(vehicle, self.xd_ticket())
+        self._DeclareInputs(vehicle)
+        self._position_port = self.DeclareStateOutputPort("position", self._position_index)
+        self._heading_port = self.DeclareStateOutputPort("heading", self._heading_index)
+        self._ground_velocity_port = self.DeclareStateOutputPort(
+            "ground_velocity", self._ground_velocity_index
+        )
+        self._DeclareMotionPowerPort()
 
     def time_step(self) -> float:
         """h [s]."""
         return self._step
 
     def SetPose(self, context, position, heading):
-        """Sets (x, y) [m] and ψ [rad] in ``context``."""
-        context.get_mutable_discrete_state(self._state_index).SetFromVector(
-            self._PoseVector(position, heading)
+        """Sets (x, y) [m] and ψ [rad] in ``context``, and the ground velocity from them if the
+        ``wind`` input has a value (NaN otherwise, until the next update)."""
+        pose = self._PoseVector(position, heading)
+        state = context.get_mutable_discrete_state()
+        state.set_value(self._position_index, pose[:2])
+        state.set_value(self._heading_index, pose[2:])
+        wind = (
+            self._wind_port.Eval(context).tolist()
+            if self._wind_port.HasValue(context)
+            else [math.nan, math.nan]
+        )
+        state.set_value(
+            self._ground_velocity_index, _GroundVelocity(float(pose[2]), wind, self._airspeed)
         )
 
-    def _StateList(self, context):
-        return context.get_discrete_state(self._state_index).value().tolist()
+    # The update handlers read the state from ``discrete_state``: Drake fills it with the
+    # context's discrete state before calling them. One numpy view per group, read and written
+    # in place.
+
+    def _Initialize(self, context, discrete_state):
+        heading = discrete_state.get_mutable_value(self._heading_index).item()
+        velocity = discrete_state.get_mutable_value(self._ground_velocity_index)
+        wind = self._wind_port.Eval(context).tolist()
+        velocity[0], velocity[1] = _GroundVelocity(heading, wind, self._airspeed)
 
     def _Update(self, context, discrete_state):
-        discrete_state.get_mutable_vector(self._state_index).SetFromVector(
-            ArcStep(
-                self._StateList(context),
-                self._AppliedRate(context),
-                self._wind_port.Eval(context).tolist(),
-                self._airspeed,
-                self._step,
-            )
+        position = discrete_state.get_mutable_value(self._position_index)
+        heading = discrete_state.get_mutable_value(self._heading_index)
+        x, y = position.tolist()
+        wind = self._wind_port.Eval(context).tolist()
+        x, y, psi = ArcStep(
+            (x, y, heading.item()), self._AppliedRate(context), wind, self._airspeed, self._step
         )
+        position[0] = x
+        position[1] = y
+        heading[0] = psi
+        velocity = discrete_state.get_mutable_value(self._ground_velocity_index)
+        velocity[0], velocity[1] = _GroundVelocity(psi, wind, self._airspeed)

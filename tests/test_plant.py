@@ -110,6 +110,8 @@ def _Trochoid(x0, rate, wind, t):
 
 def test_arc_step_is_the_exact_trochoid():
     x0, w = [3.0, -4.0, math.radians(30.0)], [4.0, -2.0]
+    step = ArcStep(x0, 0.25, w, VA, 0.01)
+    assert isinstance(step, tuple) and all(type(v) is float for v in step)  # no array per step
     for rate, h in ((0.25, 20.0), (-0.6, 0.01), (0.654, 3.0), (1e-3, 0.5)):
         np.testing.assert_allclose(
             ArcStep(x0, rate, w, VA, h), _Trochoid(x0, rate, w, h), atol=1e-12
@@ -135,7 +137,7 @@ def test_arc_step_straight_limit_has_no_cancellation():
         # The next term is O(v_a h³ ω²) = 1.5e-5 ω² m.
         np.testing.assert_allclose(step[:2], first_order, rtol=0, atol=1e-14 + VA * h**3 * rate**2)
     # Across the branch switch at |ωh| = 1e-4 the step moves by (v_a h²/2) Δω m⊥ only.
-    below, above = ArcStep(x0, 0.0099999, w, VA, h), ArcStep(x0, 0.0100001, w, VA, h)
+    below, above = (np.array(ArcStep(x0, rate, w, VA, h)) for rate in (0.0099999, 0.0100001))
     np.testing.assert_allclose(
         above[:2] - below[:2], 0.5 * VA * h * h * 2e-7 * normal, rtol=0, atol=1e-14
     )
@@ -161,9 +163,11 @@ def _Plants(vehicle):
 
 
 def _State(plant, context):
+    """(x, y, ψ) from the continuous state, or from the exact-arc plant's position and heading
+    groups."""
     if plant.num_continuous_states():
         return context.get_continuous_state_vector().CopyToVector()
-    return context.get_discrete_state_vector().CopyToVector()
+    return np.concatenate([context.get_discrete_state(i).value() for i in (0, 1)])
 
 
 @pytest.mark.parametrize("index", [0, 1], ids=["continuous", "exact_arc"])
@@ -189,10 +193,14 @@ def test_ports_and_feedthrough(index):
     # No dependency of position / heading / ground velocity on the command: no algebraic loop.
     for name in ("position", "heading", "ground_velocity"):
         assert not feed(u, name)
-    assert feed(w, "ground_velocity")
+    # The exact-arc plant keeps the ground velocity in its state (the wind read at its updates).
+    assert feed(w, "ground_velocity") == (index == 0)
     assert not feed(w, "position") and not feed(w, "heading")
     assert feed(u, "motion_power") and not feed(w, "motion_power")
-    assert plant.num_continuous_states() + plant.num_discrete_state_groups() == (3, 1)[index]
+    if index == 0:
+        assert plant.num_continuous_states() == 3 and plant.num_discrete_state_groups() == 0
+    else:
+        assert plant.num_continuous_states() == 0 and plant.num_discrete_state_groups() == 3
     assert plant.max_heading_rate() == pytest.approx(9.81 / 15.0)
     assert plant.airspeed() == 15.0
 
@@ -219,7 +227,10 @@ def test_default_state_copied_params_and_bad_vehicle(index):
 
 def test_make_plant_from_the_scenario():
     vehicle = VehicleParams()
-    assert isinstance(MakeFixedWingPlant(vehicle, SimulationParams()), FixedWingPlant)
+    continuous = MakeFixedWingPlant(vehicle, SimulationParams(plant="continuous"))
+    assert isinstance(continuous, FixedWingPlant)
+    default = FixedWingPlant if SimulationParams().plant == "continuous" else FixedWingArcPlant
+    assert isinstance(MakeFixedWingPlant(vehicle, SimulationParams()), default)
     arc = MakeFixedWingPlant(vehicle, SimulationParams(plant="exact_arc", max_step=0.02))
     assert isinstance(arc, FixedWingArcPlant) and arc.time_step() == 0.02
     with pytest.raises(ValueError, match=r"simulation\.plant: must be one of continuous, exact"):
@@ -243,19 +254,19 @@ def test_outputs_equal_the_pure_functions(index):
         x = rng.uniform([-200, -200, -20], [200, 200, 20])
         u = rng.uniform(-2.0, 2.0)
         w = rng.uniform(-5.0, 5.0, 2)
-        plant.SetPose(ctx, x[:2], x[2])
         plant.get_input_port(0).FixValue(ctx, [u])
         plant.get_input_port(1).FixValue(ctx, w)
+        plant.SetPose(ctx, x[:2], x[2])  # the exact-arc plant reads the wind here
         if index == 0:
             np.testing.assert_array_equal(
                 plant.EvalTimeDerivatives(ctx).CopyToVector(),
                 FixedWingDynamics(x, u, w, VA, rmax),
             )
         else:
-            update = plant.EvalUniquePeriodicDiscreteUpdate(ctx).get_vector().CopyToVector()
-            np.testing.assert_array_equal(
-                update, ArcStep(x, SaturatedHeadingRate(u, rmax), w, VA, H)
-            )
+            update = plant.EvalUniquePeriodicDiscreteUpdate(ctx)
+            step = ArcStep(x, SaturatedHeadingRate(u, rmax), w, VA, H)
+            np.testing.assert_array_equal(np.concatenate([update.value(0), update.value(1)]), step)
+            np.testing.assert_array_equal(update.value(2), GroundVelocity(step[2], w, VA))
         np.testing.assert_array_equal(plant.GetOutputPort("position").Eval(ctx), x[:2])
         assert plant.GetOutputPort("heading").Eval(ctx)[0] == x[2]  # not wrapped
         np.testing.assert_array_equal(
@@ -264,6 +275,35 @@ def test_outputs_equal_the_pure_functions(index):
         assert plant.GetOutputPort("motion_power").Eval(ctx)[0] == MotionPower(
             SaturatedHeadingRate(u, rmax), coefficients
         )
+
+
+def test_exact_arc_ground_velocity_is_the_state_with_the_wind_read_at_updates():
+    """The exact-arc plant's ground_velocity is a state group: NaN until the wind is read, then
+    set by the initialization event, by SetPose and by every update, and equal bit for bit to
+    GroundVelocity(ψ, w) of its heading output."""
+    plant = FixedWingArcPlant(VehicleParams(initial_heading_deg=30.0), step=H)
+    velocity, heading = plant.GetOutputPort("ground_velocity"), plant.GetOutputPort("heading")
+    ctx = plant.CreateDefaultContext()
+    assert np.all(np.isnan(velocity.Eval(ctx)))
+    plant.SetPose(ctx, [1.0, 2.0], 0.3)  # no wind yet
+    assert np.all(np.isnan(velocity.Eval(ctx)))
+    w = [3.0, -4.0]
+    plant.GetInputPort("wind").FixValue(ctx, w)
+    plant.GetInputPort("heading_rate_command").FixValue(ctx, [0.2])
+    plant.SetPose(ctx, [1.0, 2.0], 0.3)
+    np.testing.assert_array_equal(velocity.Eval(ctx), GroundVelocity(0.3, w, VA))
+
+    context = plant.CreateDefaultContext()
+    plant.GetInputPort("wind").FixValue(context, w)
+    plant.GetInputPort("heading_rate_command").FixValue(context, [0.2])
+    simulator = Simulator(plant, context)
+    simulator.Initialize()
+    np.testing.assert_array_equal(velocity.Eval(context), GroundVelocity(math.radians(30.0), w, VA))
+    for k in range(1, 6):
+        simulator.AdvanceTo(k * H)
+        psi = heading.Eval(context)[0]
+        assert psi == pytest.approx(math.radians(30.0) + 0.2 * H * k, abs=1e-12)  # k updates
+        np.testing.assert_array_equal(velocity.Eval(context), GroundVelocity(psi, w, VA))
 
 
 @pytest.mark.parametrize("index", [0, 1], ids=["continuous", "exact_arc"])
