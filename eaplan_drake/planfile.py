@@ -40,10 +40,10 @@ from eaplan_drake.coverage import (
     ANCHOR_SIZE,
     APPROACH,
     NUM_PRIMITIVES,
+    MakeCoveragePlan,
     PathLength,
     PlanSource,
     Stage,
-    ZamboniCoverage,
 )
 from eaplan_drake.params import ReadTextFile
 from eaplan_drake.paths import PathFunction
@@ -679,10 +679,4 @@ def MakePlanSource(scenario, *, initial_c1: float) -> PlanSource:
             k_e=k_e,
             c1_bounds=scenario.planner.path_parameter_bounds,
         )
-    return ZamboniCoverage(
-        coverage,
-        start=vehicle.initial_position,
-        airspeed=vehicle.airspeed,
-        initial_c1=initial_c1,
-        k_e=k_e,
-    )
+    return MakeCoveragePlan(coverage, vehicle, c1=initial_c1, k_e=k_e)
