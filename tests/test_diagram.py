@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
+from pydrake.systems.primitives import LogVectorOutput
 
 from eaplan_drake.diagram import LOGGED_SIGNALS, MakeEaplanDiagram
 from eaplan_drake.graphviz import DiagramDots
@@ -56,3 +57,69 @@ def test_committed_dot_files_match_the_code():
     assert set(committed) == set(dots), "run `eaplan-drake diagram` to regenerate diagrams/"
     for name, dot in dots.items():
         assert committed[name] == dot, f"diagrams/{name}.dot is stale: run `eaplan-drake diagram`"
+
+
+def test_the_builders_make_an_open_loop_flight_at_constant_parameters():
+    """An engineer's own diagram from the builders: the flight side at constant c1, the energy
+    side at constant c2, no planner. The aircraft moves at its ground speed and the SoC falls as
+    the Rint closed form says for the true power drawn."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from eaplan_drake.battery import SocDerivative
+    from eaplan_drake.diagram import AddEnergyLoop, AddGuidedAircraft
+    from eaplan_drake.resolve import ResolveScenario
+
+    resolved = ResolveScenario(Scenario())
+    s, table, plan = resolved.scenario, resolved.table, resolved.plan
+    builder = DiagramBuilder()
+    aircraft = AddGuidedAircraft(
+        builder, s, plan, initial_path_parameter=-1000.0, path_parameter=-1000.0
+    )
+    energy = AddEnergyLoop(
+        builder,
+        s,
+        table,
+        motion_power=aircraft.plant.GetOutputPort("motion_power"),
+        period=aircraft.sequencer.GetOutputPort("period"),
+        computation_parameters=[4.0],
+    )
+    true_power = energy.sensor.GetOutputPort("true_power")
+    logger = LogVectorOutput(true_power, builder, publish_period=s.simulation.max_step)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(10.0)
+    ctx = simulator.get_context()
+
+    def Value(system, port):
+        return system.GetOutputPort(port).Eval(system.GetMyContextFromRoot(ctx))
+
+    assert Value(energy.computation, "power")[0] == pytest.approx(table.power([4.0]), abs=1e-12)
+    p0 = np.asarray(s.vehicle.initial_position)
+    travelled = np.linalg.norm(Value(aircraft.plant, "position") - p0)
+    assert 10.0 * (s.vehicle.airspeed - s.wind.speed) - 1.0 < travelled
+    assert travelled < 10.0 * (s.vehicle.airspeed + s.wind.speed) + 1.0
+    # The battery's updates at t_k = 0, h, …, 10 s − h discharge at the power held from the
+    # previous update (0 at the first): b(10 s) = b0 + h Σ_{k<999} ḃ(y(t_k)).
+    y = logger.FindLog(ctx).data()[0]
+    h = s.simulation.max_step
+    expected = s.battery.initial_soc + h * np.sum(SocDerivative(y[:999], s.battery))
+    assert Value(energy.battery, "soc")[0] == pytest.approx(expected, abs=1e-9)
+
+
+def test_a_plan_source_passed_to_the_diagram_is_the_one_flown():
+    from eaplan_drake.planfile import LoadPlanFile
+
+    s = Scenario()
+    plan = LoadPlanFile(
+        "reference",
+        s.vehicle,
+        c1=0.0,
+        k_e=s.guidance.k_e,
+        c1_bounds=tuple(s.planner.path_parameter_bounds),
+    )
+    diagram = MakeEaplanDiagram(s, plan_source=plan, log_period=0.0)
+    sequencer = diagram.GetSubsystemByName("sequencer")
+    context = sequencer.GetMyContextFromRoot(diagram.CreateDefaultContext())
+    assert sequencer.ActiveStage(context).path.descriptor().tolist() == (
+        plan.Stages(0.0)[0].path.descriptor().tolist()
+    )
