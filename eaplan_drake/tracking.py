@@ -88,8 +88,8 @@ def FlyTracking(
     axis 0), ``phi`` (:func:`PathError`) [m], ``t_end`` [s], ``complete`` and ``wall`` (the wall
     time [s], for information only)."""
     from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
-    from pydrake.systems.framework import EventStatus
 
+    # The sequencer ends the simulation itself when the survey completes.
     diagram = MakeTrackingDiagram(scenario, plan, c1, log_period=log_period)
     simulator = Simulator(diagram)
     ResetIntegratorFromFlags(
@@ -97,12 +97,6 @@ def FlyTracking(
     )
     done = diagram.GetOutputPort("mission_complete")
 
-    def monitor(root):
-        if done.Eval(root)[0] > 0.5:
-            return EventStatus.ReachedTermination(diagram, "survey complete")
-        return EventStatus.Succeeded()
-
-    simulator.set_monitor(monitor)
     wall = time.perf_counter()
     simulator.AdvanceTo(scenario.simulation.time_limit if t_max is None else t_max)
     wall = time.perf_counter() - wall
