@@ -74,8 +74,9 @@ class PlannerObservation:
     """T [s]."""
     coverage_remaining: float
     """Fraction of the survey still to fly [-]."""
-    remaining_time: np.ndarray
-    """Exact remaining time t_rem(c1_j) at the sequencer's c1 grid [s] (M,)."""
+    remaining_time: np.ndarray | None
+    """Exact remaining time t_rem(c1_j) at the sequencer's c1 grid [s] (M,); None for a policy
+    that does not observe it (:attr:`PlannerPolicy.observes_remaining_time`)."""
     path_parameter: float
     """c1 applied now [m²]."""
     computation_parameters: np.ndarray
@@ -113,6 +114,10 @@ class PlannerPolicy:
     name = "policy"
     acts = True
     """False for a policy that never changes the parameters (no update event is declared)."""
+    observes_remaining_time = True
+    """False for a policy that never reads :attr:`PlannerObservation.remaining_time` (it is then
+    None, and the sequencer's staircase t_rem(c1_j), one plan regeneration per grid value at each
+    stage change, is never computed)."""
 
     def InitialMemory(self) -> np.ndarray:
         """The memory at t = 0 (a vector; may be empty)."""
@@ -287,7 +292,11 @@ class PlannerScheduler(LeafSystem):
             soc=float(self._soc_port.Eval(context)[0]),
             period=float(self._period_port.Eval(context)[0]),
             coverage_remaining=float(self._coverage_port.Eval(context)[0]),
-            remaining_time=np.array(self._remaining_port.Eval(context)),
+            remaining_time=(
+                np.array(self._remaining_port.Eval(context))
+                if self._policy.observes_remaining_time
+                else None
+            ),
             path_parameter=float(context.get_discrete_state(self._c1_index).GetAtIndex(0)),
             computation_parameters=context.get_discrete_state(self._c2_index).get_value().copy(),
         )

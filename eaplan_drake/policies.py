@@ -50,7 +50,7 @@ def _Finite(observation: PlannerObservation) -> bool:
     values = np.concatenate(
         (
             o.energy_coefficients,
-            o.remaining_time,
+            o.remaining_time if o.remaining_time is not None else [],
             o.computation_parameters,
             [o.mean_power_variance, o.soc, o.period, o.coverage_remaining, o.path_parameter],
         )
@@ -71,6 +71,7 @@ class StaticPolicy(PlannerPolicy):
 
     name = "static"
     acts = False
+    observes_remaining_time = False
 
     def Plan(self, observation, memory) -> PlannerDecision:
         return PlannerDecision(
@@ -83,6 +84,7 @@ class PaperPolicy(PlannerPolicy):
     start of its NLP (carried unchanged with integer parameters, where no NLP is needed)."""
 
     name = "paper"
+    observes_remaining_time = False
 
     def __init__(self, planner: Planner):
         self.planner = planner
@@ -221,6 +223,7 @@ class GreedyAuthorsPolicy(PlannerPolicy):
     """The authors' MATLAB rule (see the module docstring), on the paper planner's model."""
 
     name = "greedy_authors"
+    observes_remaining_time = False
 
     def __init__(self, planner: Planner):
         self.planner = planner

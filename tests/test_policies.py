@@ -131,6 +131,22 @@ def test_a_python_policy_object_replaces_the_scenarios():
     assert log.summary["policy"] == "constant"
 
 
+def test_a_policy_that_does_not_observe_the_remaining_time_gets_none():
+    seen = []
+
+    class Blind(PlannerPolicy):
+        name = "blind"
+        observes_remaining_time = False
+
+        def Plan(self, observation, memory):
+            seen.append(observation.remaining_time)
+            return PlannerDecision(-500.0, np.array([4.0]), memory)
+
+    log = Simulate(_Short("mpc", time_limit=45.0), policy=Blind())
+    assert seen and all(r is None for r in seen)
+    np.testing.assert_array_equal(log["path_parameters"][log.times > 40.05, 0], -500.0)
+
+
 @pytest.mark.parametrize(
     "warmup_parameters, c1, c2", [("lowest", -1000.0, 2.0), ("initial", 0.0, 10.0)]
 )
