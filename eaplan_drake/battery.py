@@ -250,17 +250,23 @@ class Battery(LeafSystem):
         return y
 
     def _Update(self, context, discrete_state):
+        # Drake fills discrete_state with the context's values before this handler
+        # (LeafSystem::DispatchDiscreteVariableUpdateHandler): one numpy view, read and written
+        # in place, in the order of BatteryState (soc, held_power, next_fault).
         p = self._params
-        x = BatteryState(context.get_discrete_state_vector().value().tolist())
+        x = discrete_state.get_mutable_value()
+        soc, held_power, next_fault = x.tolist()
         y = self._Power(context)
-        b = SocAfter(x.soc, x.held_power, self._time_step, p)
-        k = int(x.next_fault)
+        b = SocAfter(soc, held_power, self._time_step, p)
+        k = int(next_fault)
         if k < len(self._fault_times):
             t = context.get_time()
             while k < len(self._fault_times) and self._fault_times[k] <= t:
                 b = max(b - self._faults[k].soc_drop, 0.0)
                 k += 1
-        discrete_state.set_value([b, y, float(k)])
+        x[0] = b
+        x[1] = y
+        x[2] = k
         if IsBrownout(y, p.voltage, p.internal_resistance):
             return EventStatus.ReachedTermination(self, STATUS_BROWNOUT)
         if b <= p.reserve_soc:

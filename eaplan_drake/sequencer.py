@@ -70,6 +70,7 @@ UPDATE_PERIOD = 0.05
 SequencerMode = namedview("SequencerMode", ["stage", "c1", "remaining", "stage_left"])
 """The sequencer's ``mode`` state: active stage index, c1 [m²], remaining survey fraction [-],
 share of the active stage's path still to fly [-]."""
+_STAGE, _C1, _REMAINING, _STAGE_LEFT = range(len(SequencerMode._fields))
 
 StageSource = namedview(
     "StageSource", ["after_index"] + [f"anchor_{i}" for i in range(ANCHOR_SIZE)] + ["c1"]
@@ -316,55 +317,66 @@ class StageSequencer(LeafSystem):
     def _Update(self, context, discrete_state):
         if self._ticks > 1 and round(context.get_time() / self._time_step) % self._ticks:
             return EventStatus.DidNothing()
-        if context.get_discrete_state(self._complete_index).GetAtIndex(0) > 0.5:
+        # Drake fills discrete_state with the context's values before this handler
+        # (LeafSystem::DispatchDiscreteVariableUpdateHandler): the groups are read and written in
+        # place; entries, source, period and path change at stage switches only.
+        if discrete_state.get_value(self._complete_index)[0] > 0.5:
             return EventStatus.ReachedTermination(self, "complete")
-        mode = SequencerMode(context.get_discrete_state(self._mode_index).CopyToVector())
-        complete = False
-        source = context.get_discrete_state(self._source_index).CopyToVector()
-        entries = context.get_discrete_state(self._entries_index).CopyToVector()
-        period = context.get_discrete_state(self._period_index).GetAtIndex(0)
+        mode = discrete_state.get_mutable_value(self._mode_index)
+        source = discrete_state.get_mutable_value(self._source_index)
         stage, rest_length = self._ActiveOf(source)
+        c1 = mode[_C1]
         p = self._position_port.Eval(context)
         px, py = float(p[0]), float(p[1])
-        plan = self._plan
-        c1 = mode.c1
         if self._path_parameters_port.HasValue(context):
             c1_in = float(self._path_parameters_port.Eval(context)[0])
             if math.isfinite(c1_in):
                 c1_in = min(max(c1_in, self._c1_lo), self._c1_hi)
                 if abs(c1_in - c1) > 1e-9:
                     c1 = c1_in
-                    mode.c1 = c1
-        if math.isfinite(px) and math.isfinite(py):
-            t = context.get_time()
-            for _ in range(8):  # several zero-length stages may fire at once
-                if not Triggered(stage, (px, py), self._epsilon):
-                    break
-                rest = plan.StagesAfter(stage.index, stage.anchor, c1)
-                if not rest:
-                    complete = True
-                    break
-                source[:] = (stage.index, *stage.anchor, c1)
-                stage, rest_length = self._ActiveOf(source)
-                k = stage.primitive
-                mode.stage = stage.index
-                if 0 <= k < self._num_primitives:
-                    last = entries[k]
-                    if last >= 0.0 and t > last:
-                        period = t - last
-                    entries[k] = t
-            if complete:
-                mode.remaining = 0.0
-            else:
-                mode.remaining = SurveyFraction(stage, (px, py), rest_length, self._total)
-            length = stage.length
-            mode.stage_left = PathLeft(stage, (px, py)) / length if length > 0.0 else 0.0
-        discrete_state.set_value(self._mode_index, mode[:])
-        discrete_state.set_value(self._entries_index, entries)
-        discrete_state.set_value(self._source_index, source)
-        discrete_state.set_value(self._period_index, [period])
-        discrete_state.set_value(self._path_index, stage.descriptor)
+                    mode[_C1] = c1
+        if not (math.isfinite(px) and math.isfinite(py)):
+            return EventStatus.Succeeded()
+        complete = False
+        if Triggered(stage, (px, py), self._epsilon):
+            stage, complete = self._Switch(context, discrete_state, stage, (px, py), c1)
+            rest_length = self._ActiveOf(source)[1]
+        mode[_STAGE] = stage.index
         if complete:
-            discrete_state.set_value(self._complete_index, [1.0])
+            mode[_REMAINING] = 0.0
+        else:
+            mode[_REMAINING] = SurveyFraction(stage, (px, py), rest_length, self._total)
+        length = stage.length
+        mode[_STAGE_LEFT] = PathLeft(stage, (px, py)) / length if length > 0.0 else 0.0
+        if complete:
+            discrete_state.get_mutable_value(self._complete_index)[0] = 1.0
             return EventStatus.ReachedTermination(self, "complete")
         return EventStatus.Succeeded()
+
+    def _Switch(self, context, discrete_state, stage, position, c1) -> tuple[Stage, bool]:
+        """Moves past every stage whose triggering point ``position`` has reached (several
+        zero-length stages may fire at once): the new stage's source, path, entry time and the
+        period (time between two entries into the same primitive) are written into
+        ``discrete_state``. Returns (the active stage, whether the plan is complete)."""
+        plan = self._plan
+        source = discrete_state.get_mutable_value(self._source_index)
+        entries = discrete_state.get_mutable_value(self._entries_index)
+        period = discrete_state.get_mutable_value(self._period_index)
+        t = context.get_time()
+        complete = False
+        for _ in range(8):
+            if not Triggered(stage, position, self._epsilon):
+                break
+            if not plan.StagesAfter(stage.index, stage.anchor, c1):
+                complete = True
+                break
+            source[:] = (stage.index, *stage.anchor, c1)
+            stage = self._ActiveOf(source)[0]
+            k = stage.primitive
+            if 0 <= k < self._num_primitives:
+                last = entries[k]
+                if last >= 0.0 and t > last:
+                    period[0] = t - last
+                entries[k] = t
+        discrete_state.set_value(self._path_index, stage.descriptor)
+        return stage, complete
