@@ -270,7 +270,7 @@ class EnergyEstimator(LeafSystem):
 
     def _CalcPower(self, context: Context, output: BasicVector) -> None:
         q = context.get_discrete_state(self._q_index).get_value()
-        output.SetAtIndex(0, float(self._c @ q))
+        output.SetAtIndex(0, float(self._c.dot(q)))
 
     def _CalcTrace(self, context: Context, output: BasicVector) -> None:
         P = context.get_discrete_state(self._P_index).get_value()
