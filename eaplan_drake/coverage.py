@@ -258,17 +258,27 @@ def StageTime(stage: Stage, airspeed: float, wind=(0.0, 0.0)) -> float:
     if not w.any():
         return stage.length / airspeed
     o = path.center
-    radius = path.radius
-    angle = stage.length / radius
     ccw = (path.s < 0) == (path.a > 0)
     a0 = math.atan2(stage.entry[1] - o[1], stage.entry[0] - o[0])
+    return _ArcTime(
+        float(stage.length), float(path.radius), a0, ccw, float(airspeed), float(w[0]), float(w[1])
+    )
+
+
+@functools.lru_cache(maxsize=4096)
+def _ArcTime(length, radius, a0, ccw, airspeed, wx, wy) -> float:
+    """Time [s] on a circle arc of ``length`` [m] and ``radius`` [m] entered at angle a0 [rad]
+    (counter-clockwise when ``ccw``) at ``airspeed`` [m/s] in wind (wx, wy) [m/s]: the midpoint
+    rule over ≈ 720 points per turn. A pure function of its floats, cached (a plan repeats the
+    same circles, and the sequencer's staircase re-times the rest of the plan at each stage)."""
+    angle = length / radius
     n = max(16, int(math.ceil(angle / (2 * math.pi) * 720)))
     theta = a0 + (np.arange(n) + 0.5) / n * angle * (1.0 if ccw else -1.0)
     sign = 1.0 if ccw else -1.0
     tx, ty = -np.sin(theta) * sign, np.cos(theta) * sign
-    cross = w[0] * ty - w[1] * tx
-    vg = w[0] * tx + w[1] * ty + np.sqrt(airspeed**2 - cross**2)
-    return float(np.sum(stage.length / n / vg))
+    cross = wx * ty - wy * tx
+    vg = wx * tx + wy * ty + np.sqrt(airspeed**2 - cross**2)
+    return float(np.sum(length / n / vg))
 
 
 def _Memoized(maxsize: int):
@@ -618,8 +628,24 @@ class CoveragePolygon:
             values = [L[k, 0]]
         return min(values), max(values)
 
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_band_extents", None)  # a cache, rebuilt on use
+        return state
+
     def BandExtent(self, eta: float, half_width: float) -> tuple[float, float]:
-        """(ξ_lo, ξ_hi): the polygon's extent along e1 over the band [η − h, η + h]."""
+        """(ξ_lo, ξ_hi): the polygon's extent along e1 over the band [η − h, η + h] (cached per
+        (η, h): a plan's repetitions share their bands with their neighbours)."""
+        cache = self.__dict__.setdefault("_band_extents", {})
+        key = (eta, half_width)
+        extent = cache.get(key)
+        if extent is None:
+            if len(cache) >= 4096:
+                cache.clear()
+            extent = cache[key] = self._BandExtent(eta, half_width)
+        return extent
+
+    def _BandExtent(self, eta: float, half_width: float) -> tuple[float, float]:
         lo_eta = min(max(eta - half_width, 0.0), self.width)
         hi_eta = min(max(eta + half_width, 0.0), self.width)
         etas = [lo_eta, hi_eta] + [e for e in self.local[:, 1] if lo_eta < e < hi_eta]
