@@ -1,5 +1,6 @@
 """Tests of the power-log reader, the model fit and ``eaplan-drake fit``."""
 
+import dataclasses as dc
 import math
 from importlib import resources
 from pathlib import Path
@@ -13,18 +14,28 @@ from eaplan_drake.estimator import KalmanPredict, KalmanUpdate
 from eaplan_drake.fit import (
     BaselinePrediction,
     FilterPowerSeries,
+    FitLevelNoise,
     FitNoise,
     FitPowerModel,
     HorizonSteps,
     NoiseParameters,
+    PeriodInForce,
+    PeriodSeries,
     PowerModelFit,
+    PredictAhead,
     ScorePredictions,
     SteadyStateCovariance,
     SyntheticPower,
     UniformPowerSeries,
 )
 from eaplan_drake.params import LoadScenario
-from eaplan_drake.powerlog import REFERENCE_ENV, PowerLogError, ReadPowerLog, ReferenceDirectory
+from eaplan_drake.powerlog import (
+    REFERENCE_ENV,
+    PowerLogError,
+    ReadPeriodLog,
+    ReadPowerLog,
+    ReferenceDirectory,
+)
 
 DATA = resources.files("eaplan_drake") / "data"
 T = 46.0
@@ -217,3 +228,91 @@ def test_opterra_throttle_log_reads_and_has_the_track_period():
     found = EstimatePeriodWithConfidence(log.times, log.power)
     assert found.period == pytest.approx(49.5, rel=0.03)  # the track repeats every ≈ 49.5 s
     assert Path(ReferenceDirectory()).is_dir()
+
+
+def _phase_signal(dt, periods):
+    """Noise-free power of two harmonics on the phase θ_k = 2π Σ_{i<k} Δt/T_i (continuous
+    through a change of period)."""
+    theta = np.concatenate(([0.0], np.cumsum(2.0 * math.pi * dt / periods[:-1])))
+    return 30.0 + 3.0 * np.cos(theta) + 2.0 * np.sin(2.0 * theta), theta
+
+
+def test_time_varying_period_filter_is_exact_on_a_phase_continuous_signal():
+    """T changes 46 → 40 s mid-record: the filter re-discretised per T_k has zero innovations
+    and predicts T/4 ahead exactly (holding the period in force); one T does not."""
+    dt = 0.5
+    Ts = np.where(np.arange(800) < 400, 46.0, 40.0)
+    z, theta = _phase_signal(dt, Ts)
+    noise = NoiseParameters(1e-6, 1e-12)
+    states, e, s = FilterPowerSeries(z, dt, 2, Ts, noise)
+    assert s.shape == z.shape and np.max(np.abs(e)) < 1e-6
+    H = 10
+    pred = PredictAhead(states, 2, Ts, dt, noise, H)
+    k = np.arange(400, 800 - H)  # the period in force (40 s) holds over the horizon
+    exact = 30.0 + 3.0 * np.cos(theta[k] + 2 * math.pi * H * dt / 40.0)
+    exact += 2.0 * np.sin(2.0 * (theta[k] + 2 * math.pi * H * dt / 40.0))
+    np.testing.assert_allclose(pred[k], exact, rtol=0.0, atol=1e-6)
+    _, e_fixed, _ = FilterPowerSeries(z, dt, 2, 46.0, noise)
+    assert np.max(np.abs(e_fixed[400:])) > 0.1
+    first, _, _ = FilterPowerSeries(z[:400], dt, 2, 46.0, noise)  # before the change: = one T
+    np.testing.assert_allclose(states[:400], first, rtol=0.0, atol=1e-9)
+
+
+def test_period_series_and_period_in_force():
+    assert PeriodSeries(46.0, 5) == (46.0, None)
+    assert PeriodSeries(np.full(5, 40.0), 5) == (40.0, None)
+    nominal, Ts = PeriodSeries(np.array([40.0, 40.0, 41.0]), 3)
+    assert nominal == 41.0 and Ts.size == 3
+    with pytest.raises(ValueError, match="period: needs one T per sample"):
+        PeriodSeries(np.ones(4), 5)
+    with pytest.raises(ValueError, match="period: every T_k"):
+        PeriodSeries(np.array([1.0, 0.0]), 2)
+    with pytest.raises(ValueError, match="period: must be finite"):
+        PeriodSeries(-1.0, 2)
+    T = PeriodInForce([0.0, 1.0, 2.5, 9.0], [1.0, 2.0, 5.0], [40.0, 45.0, 50.0])
+    np.testing.assert_array_equal(T, [40.0, 40.0, 45.0, 50.0])
+
+
+def test_seasonal_naive_with_the_period_in_force_never_looks_ahead():
+    z = np.arange(60.0)
+    P = np.where(np.arange(60) < 30, 10, 6)
+    H = 8  # longer than the period in force from k = 30 on: two periods back
+    pred = BaselinePrediction("seasonal naive", z, P, H)
+    k = np.arange(60)
+    assert pred[20] == z[20 + H - 10] and pred[40] == z[40 + H - 12]
+    assert np.all(pred[np.isfinite(pred)] <= k[np.isfinite(pred)])
+    ma = BaselinePrediction("moving average", z, P, 1)
+    assert ma[40] == pytest.approx(np.mean(z[35:41]))
+
+
+def test_read_authors_period_log(tmp_path):
+    f = tmp_path / "perioddata.csv"
+    f.write_text("99,1\n100,1.01\n3626,36.27\n")
+    t, T = ReadPeriodLog(f)
+    np.testing.assert_allclose(t, [0.99, 1.0, 36.26])
+    np.testing.assert_array_equal(T, [1.0, 1.01, 36.27])
+    f.write_text("99,1\n100,0\n")
+    with pytest.raises(PowerLogError, match=r"perioddata.csv:2: needs a step and a period"):
+        ReadPeriodLog(f)
+    f.write_text("99,1\n98,2\n")
+    with pytest.raises(PowerLogError, match=r"perioddata.csv:2: step decreases"):
+        ReadPeriodLog(f)
+
+
+def test_level_noise_recovers_the_local_level_ratio():
+    """Random walk level (q_0 = 0.01 W² per step) + white noise (R = 1 W²): the Kalman level is
+    the best predictor at every horizon, so the multi-step criterion picks λ = q_0/R = 0.01
+    (within its quarter-decade grid, ±1 step for the finite record) and R by likelihood."""
+    rng = np.random.default_rng(5)
+    n = 3000
+    level = 20.0 + np.cumsum(rng.normal(0.0, 0.1, n))
+    z = level + rng.normal(0.0, 1.0, n)
+    noise = FitLevelNoise(z, 1.0, 40.0)
+    ratio = noise.mean_process_noise / noise.measurement_noise
+    assert 10**-2.5 <= ratio <= 10**-1.5
+    assert noise.measurement_noise == pytest.approx(1.0, rel=0.15)
+    assert noise.process_noise == 0.0 and noise.aperiodic_time_constant == 0.0
+    base = NoiseParameters(1.0, 0.0, 5.0, 10.0, 0.1)  # q_0 re-chosen, the rest kept
+    again = FitLevelNoise(z, 1.0, 40.0, base)
+    assert dc.replace(again, mean_process_noise=5.0) == base
+    assert 10**-2.75 <= again.mean_process_noise <= 10**-1.25
