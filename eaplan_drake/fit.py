@@ -22,8 +22,8 @@ the time-invariant filter's limit; this makes ℓ cheap and is the standard stea
 approximation of the exact likelihood).
 
 **Order by a held-out criterion.** :func:`FitPowerModel` fits every candidate order (noise by
-likelihood, Nelder–Mead from the default start and from the previous order's optimum, the
-higher likelihood kept) on the first 70 % of the training record and keeps the structure whose
+likelihood, Nelder–Mead from the default start and from the previous order's optimum: two
+local optima, both candidates) on the first 70 % of the training record and keeps the one whose
 predictions at 1 step, T/4, T/2 and T ahead have the smallest mean squared error, summed over
 the four horizons, for the targets in the remaining 30 % (:func:`MultiStepError`; origins before
 the split count, so every horizon has the same held-out targets). The same criterion decides
@@ -601,12 +601,13 @@ def FitPowerModel(
 
     ``period`` is T [s] or T_k per sample (:func:`PeriodSeries`; the nominal T sets the
     horizons). Every order of ``orders`` with 2r + 1 ≤ T/Δt has its noise fitted by likelihood on
-    the first 70 % (each search starting from the previous order's optimum) and is scored by
-    :func:`MultiStepError` on the last 30 % (the held-out criterion of the module docstring);
-    then whether the level random walk q_0 helps the best order (held out too); with
-    ``local_level`` the local-level model of :func:`FitLevelNoise` (r = 0, no harmonics, its
-    λ fitted on the first 70 %) is a candidate scored the same way. The chosen structure's noise
-    is refitted on the whole record (likelihood; the local level: :func:`FitLevelNoise`).
+    the first 70 % (from the default start and from the previous order's higher-likelihood
+    optimum; both optima are candidates) and is scored by :func:`MultiStepError` on the last
+    30 % (the held-out criterion of the module docstring); then whether the level random walk
+    q_0 helps the best order (held out too); with ``local_level`` the two levels of
+    :func:`FitLevelNoise` (the local level, and r = 0 with q_0 re-chosen; fitted on the first
+    70 %) are candidates scored the same way. The chosen structure's noise is refitted on the
+    whole record, from the chosen optimum (likelihood; the levels: :func:`FitLevelNoise`).
     ``aperiodic`` adds the AR(1) load state to the Fourier candidates (False: the paper's model).
     """
     z = np.asarray(z, dtype=float).reshape(-1)
@@ -624,19 +625,19 @@ def FitPowerModel(
     for r in sorted({int(r) for r in orders}):
         if 2 * r + 1 > P:  # more harmonics than one period of samples resolves
             continue
-        noise, ll = FitNoise(z[:split], time_step, r, head, aperiodic, max_evaluations)
+        fits = [FitNoise(z[:split], time_step, r, head, aperiodic, max_evaluations)]
         if warm is not None:  # the previous order's optimum as a second start
-            again, ll_again = FitNoise(
-                z[:split], time_step, r, head, aperiodic, max_evaluations // 2, warm
+            fits.append(
+                FitNoise(z[:split], time_step, r, head, aperiodic, max_evaluations // 2, warm)
             )
-            noise = again if ll_again > ll else noise
-        warm = noise
+        warm = max(fits, key=lambda fit: fit[1])[0]
         if r == 0:
-            level_start = noise
-        score = MultiStepError(z, time_step, r, period, noise, split)
-        candidates.append((r, noise.mean_process_noise, score))
-        if best is None or score < best[2]:
-            best = (r, noise.mean_process_noise, score, noise)
+            level_start = warm
+        for noise, _ in fits:  # both likelihood optima are candidates of the held-out choice
+            score = MultiStepError(z, time_step, r, period, noise, split)
+            candidates.append((r, noise.mean_process_noise, score))
+            if best is None or score < best[2]:
+                best = (r, noise.mean_process_noise, score, noise)
     if best is None:
         raise ValueError(f"orders: no candidate in {list(orders)} fits a period of {P} samples")
     # Whether the level random walk q_0 helps, by the same held-out criterion.
