@@ -251,7 +251,7 @@ def FilterPowerSeries(
     for one period, N for T_k). ``initial_state`` replaces that q̂(0) (m entries).
     """
     z = np.asarray(z, dtype=float).reshape(-1)
-    _, Ts = PeriodSeries(period, z.size)
+    nominal, Ts = PeriodSeries(period, z.size)
     model = noise.Model(order)
     c = OutputMatrix(model)[0]
     m = c.size
@@ -273,7 +273,7 @@ def FilterPowerSeries(
             states[j] = q
             q, P = KalmanPredict(q, P, transition(Ts[j]), Q)
         return states, e, s
-    Ad, _ = DiscreteEnergyMatrices(model, period, time_step)
+    Ad, _ = DiscreteEnergyMatrices(model, nominal, time_step)
     K, _, s = KalmanGain(SteadyStateCovariance(Ad, c, Q, R), c, R)
     F = Ad - np.outer(Ad @ K, c)  # q⁻ ← A_d (I − K c) q⁻ + A_d K z
     G = Ad @ K

@@ -16,6 +16,7 @@ from eaplan_drake.fit import (
     FilterPowerSeries,
     FitLevelNoise,
     FitNoise,
+    FitPowerLog,
     FitPowerModel,
     HorizonSteps,
     NoiseParameters,
@@ -316,3 +317,38 @@ def test_level_noise_recovers_the_local_level_ratio():
     again = FitLevelNoise(z, 1.0, 40.0, base)
     assert dc.replace(again, mean_process_noise=5.0) == base
     assert 10**-2.75 <= again.mean_process_noise <= 10**-1.25
+
+
+def test_fit_chooses_a_level_without_harmonics_for_a_random_walk():
+    """No periodic part: a random-walk level (0.05 W per step) + white noise (0.5 W). The held-out
+    choice keeps no harmonics, and the level fitted for the horizons is within 2 % of the
+    one-period moving average and within 10 % of last value one step ahead."""
+    rng = np.random.default_rng(11)
+    n = 1600
+    z = 40.0 + np.cumsum(rng.normal(0.0, 0.05, n)) + rng.normal(0.0, 0.5, n)
+    fit = FitPowerModel(z[: n // 2], 1.0, 40.0, orders=(0, 1), max_evaluations=60)
+    assert fit.order == 0 and {c[0] for c in fit.candidates} == {0, 1}
+    scores = ScorePredictions(z, 1.0, 40.0, fit)
+    for h in ("T/4", "T/2", "T"):
+        assert scores["model"][h][0] <= 1.02 * scores["moving average"][h][0], (h, scores)
+    assert scores["model"]["1 step"][0] <= 1.1 * scores["last value"]["1 step"][0]
+
+
+def test_fit_power_log_with_a_period_log_uses_the_period_in_force():
+    """The period changes 46 → 40 s at 3/4 of the record: with the period log the model and
+    seasonal naive both predict T/4 ahead better than with one T (40 s, the last)."""
+    dt = 0.5
+    t = dt * np.arange(1200)
+    Ts = np.where(t < 450.0, 46.0, 40.0)
+    z, _ = _phase_signal(dt, Ts)
+    z = z + np.random.default_rng(3).normal(0.0, 0.05, z.size)
+    log = ([0.0, 450.0], [46.0, 40.0])
+    varying = FitPowerLog(t, z, orders=(2,), period_log=log)
+    fixed = FitPowerLog(t, z, 40.0, orders=(2,))
+    assert varying.periods is not None and varying.periods[0] == 46.0
+    assert "period log" in varying.period_source
+    for name in ("model", "seasonal naive"):
+        assert varying.scores[name]["T/4"][0] < 0.5 * fixed.scores[name]["T/4"][0], name
+    assert varying.scores["model"]["T/4"][0] < 0.5 * varying.scores["seasonal naive"]["T/4"][0]
+    with pytest.raises(ValueError, match="period: give either"):
+        FitPowerLog(t, z, 40.0, period_log=log)
