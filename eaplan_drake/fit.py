@@ -19,7 +19,8 @@ The first k_0 samples (one
 period, at most a fifth of the record) are the filter's start-up from a diffuse prior and are left
 out. From then on the filter runs with the steady-state gain (:func:`SteadyStateCovariance`,
 the time-invariant filter's limit; this makes ℓ cheap and is the standard steady-state
-approximation of the exact likelihood).
+approximation of the exact likelihood). With a period that changes (below) the filter starts
+at that covariance and runs the exact time-varying recursion (s_k varies).
 
 **Order by a held-out criterion.** :func:`FitPowerModel` fits every candidate order (noise by
 likelihood, Nelder–Mead from the default start and from the previous order's optimum: two
