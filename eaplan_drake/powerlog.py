@@ -255,10 +255,11 @@ def ReadPeriodLog(path, step: float = AUTHORS_CONTROL_STEP) -> tuple[np.ndarray,
     if first is None:
         raise PowerLogError(f"{path}: empty file")
     data = _Parse(path, lines, first, 2)
+    line = [i + 1 for i in range(first, len(lines)) if lines[i].strip()]  # 1-based, per row
     bad = np.flatnonzero(~np.all(np.isfinite(data), axis=1) | (data[:, 1] <= 0.0))
     if bad.size:
-        raise PowerLogError(f"{path}:{first + bad[0] + 1}: needs a step and a period T > 0 [s]")
+        raise PowerLogError(f"{path}:{line[bad[0]]}: needs a step and a period T > 0 [s]")
     back = np.flatnonzero(np.diff(data[:, 0]) < 0.0)
     if back.size:
-        raise PowerLogError(f"{path}:{first + back[0] + 2}: step decreases")
+        raise PowerLogError(f"{path}:{line[back[0] + 1]}: step decreases")
     return data[:, 0] * float(step), data[:, 1]

@@ -295,8 +295,8 @@ def test_read_authors_period_log(tmp_path):
     f.write_text("99,1\n100,0\n")
     with pytest.raises(PowerLogError, match=r"perioddata.csv:2: needs a step and a period"):
         ReadPeriodLog(f)
-    f.write_text("99,1\n98,2\n")
-    with pytest.raises(PowerLogError, match=r"perioddata.csv:2: step decreases"):
+    f.write_text("99,1\n\n98,2\n")  # a blank line is skipped, the line number kept
+    with pytest.raises(PowerLogError, match=r"perioddata.csv:3: step decreases"):
         ReadPeriodLog(f)
 
 
