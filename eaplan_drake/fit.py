@@ -75,6 +75,7 @@ __all__ = [
     "InnovationLogLikelihood",
     "FitLevelNoise",
     "LEVEL_RATIOS",
+    "ModelName",
     "MultiStepError",
     "ORDERS",
     "PeriodInForce",
@@ -484,9 +485,12 @@ class PowerModelFit:
     mean_power: float
     """Mean of the training record [W]."""
     candidates: list
-    """(order r, level intensity q_0 [W²/step], held-out score [W²]) of every candidate tried,
-    in order: the orders, the best order without q_0, then the levels fitted for the horizons
-    (local level, then r = 0 with its q_0 re-chosen)."""
+    """(order r, level intensity q_0 [W²/step], held-out score [W²], name) of every candidate
+    tried, in order: the orders, the best order without q_0, then the levels fitted for the
+    horizons (local level, then r = 0 with its q_0 re-chosen); name as :attr:`model_name`."""
+    model_name: str = ""
+    """The chosen model in words (:func:`ModelName`): "r=4+AR(1)", "level", "level+AR(1)", …;
+    the two levels fitted for the horizons have r = 0 like the ordinary r = 0 model."""
 
     def ScenarioFragment(self, estimator_rate: float = 100.0) -> str:
         """YAML for ``simulate`` with the fitted model (energy_model and estimator keys).
@@ -498,8 +502,10 @@ class PowerModelFit:
         scale = (1.0 / estimator_rate) / self.time_step
         qn = self.noise.process_noise * scale
         tau = self.noise.aperiodic_time_constant
+        name = self.model_name or ModelName(self.order, self.noise)
         lines = [
             "# fitted by eaplan-drake fit (innovation likelihood; order by held-out error)",
+            f"# model: {name}",
             "sensor:",
             f"  noise_std: {_YamlFloat(math.sqrt(self.noise.measurement_noise))}",
             "energy_model:",
@@ -517,6 +523,20 @@ class PowerModelFit:
                 f"  aperiodic_noise: {_YamlFloat(self.noise.aperiodic_noise)}",
             ]
         return "\n".join(lines) + "\n"
+
+
+def ModelName(order: int, noise: NoiseParameters, horizon: str = "none") -> str:
+    """The model in words: "r=<r>" for the Fourier model of order r, with "+AR(1)" when it has
+    the aperiodic load (τ > 0) and "+walk" when its level α0 has the random walk q_0 > 0;
+    ``horizon`` "local" (the local level of :func:`FitLevelNoise`) is "level", "r0" (the r = 0
+    model with q_0 re-chosen for the horizons) "level+AR(1)" (or "level" without τ)."""
+    aperiodic = "+AR(1)" if noise.aperiodic_time_constant > 0.0 else ""
+    if horizon in ("local", "r0"):
+        return "level" + aperiodic
+    if horizon != "none":
+        raise ValueError(f"horizon: one of none, local, r0, got {horizon!r}")
+    walk = "+walk" if noise.mean_process_noise > 0.0 else ""
+    return f"r={int(order)}{aperiodic}{walk}"
 
 
 def _YamlFloat(x: float) -> str:
@@ -636,7 +656,7 @@ def FitPowerModel(
             level_start = warm
         for noise, _ in fits:  # both likelihood optima are candidates of the held-out choice
             score = MultiStepError(z, time_step, r, period, noise, split)
-            candidates.append((r, noise.mean_process_noise, score))
+            candidates.append((r, noise.mean_process_noise, score, ModelName(r, noise)))
             if best is None or score < best[2]:
                 best = (r, noise.mean_process_noise, score, noise)
     if best is None:
@@ -647,7 +667,7 @@ def FitPowerModel(
         z[:split], time_step, r, head, aperiodic, max_evaluations // 3, best[3], level=False
     )
     score = MultiStepError(z, time_step, r, period, fixed, split)
-    candidates.append((r, 0.0, score))
+    candidates.append((r, 0.0, score, ModelName(r, fixed)))
     level = score >= best[2]
     if not level:
         best = (r, 0.0, score, fixed)
@@ -658,20 +678,30 @@ def FitPowerModel(
         for name, base in bases.items():
             walk = FitLevelNoise(z[:split], time_step, nominal, base)
             score = MultiStepError(z, time_step, 0, nominal, walk, split)
-            candidates.append((0, walk.mean_process_noise, score))
+            candidates.append((0, walk.mean_process_noise, score, ModelName(0, walk, name)))
             if score < best[2]:
                 best, horizon = (0, walk.mean_process_noise, score, walk), name
     if horizon == "none":
         noise, ll = FitNoise(
             z, time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=level
         )
-        return PowerModelFit(r, nominal, float(time_step), noise, ll, float(z.mean()), candidates)
+        return PowerModelFit(
+            r,
+            nominal,
+            float(time_step),
+            noise,
+            ll,
+            float(z.mean()),
+            candidates,
+            ModelName(r, noise),
+        )
     base = None
     if horizon == "r0":
         base, _ = FitNoise(z, time_step, 0, nominal, aperiodic, max_evaluations // 3, level_start)
     noise = FitLevelNoise(z, time_step, nominal, base)
     ll = InnovationLogLikelihood(z, time_step, 0, nominal, noise)
-    return PowerModelFit(0, nominal, float(time_step), noise, ll, float(z.mean()), candidates)
+    name = ModelName(0, noise, horizon)
+    return PowerModelFit(0, nominal, float(time_step), noise, ll, float(z.mean()), candidates, name)
 
 
 def ScorePredictions(z, time_step: float, period, fit: PowerModelFit):
@@ -797,7 +827,8 @@ def PlotLogFit(result: LogFit):
         a.bar(x + (i - 1.5) * width, [row[h][0] for h in horizons], width, label=name)
     a.set_xticks(x, horizons)
     a.set_ylabel("RMSE [W]")
-    a.set_title(f"prediction error, order r = {fit.order}, T = {fit.period:.1f} s")
+    name = fit.model_name or ModelName(fit.order, fit.noise)
+    a.set_title(f"prediction error, model {name}, T = {fit.period:.1f} s")
     a.legend(fontsize=8)
     dt = fit.time_step
     period = result.Period()

@@ -352,3 +352,99 @@ def test_fit_power_log_with_a_period_log_uses_the_period_in_force():
     assert varying.scores["model"]["T/4"][0] < 0.5 * varying.scores["seasonal naive"]["T/4"][0]
     with pytest.raises(ValueError, match="period: give either"):
         FitPowerLog(t, z, 40.0, period_log=log)
+
+
+def _WriteLog(path, t, z):
+    path.write_text(
+        "time_s,power_w\n" + "".join(f"{a:.2f},{b:.5f}\n" for a, b in zip(t, z, strict=True))
+    )
+
+
+def test_cli_fit_with_a_period_log_names_the_model(tmp_path, capsys):
+    """--period-log reads the authors' (step, T) rows (0.01 s steps) as the period in force; the
+    printout and the fragment name the chosen model and every candidate."""
+    dt = 0.5
+    t = dt * np.arange(1200)
+    z, _ = _phase_signal(dt, np.where(t < 450.0, 46.0, 40.0))
+    z = z + np.random.default_rng(3).normal(0.0, 0.05, z.size)
+    log, periods, out = tmp_path / "flight.csv", tmp_path / "perioddata.csv", tmp_path / "o"
+    _WriteLog(log, t, z)
+    periods.write_text("0,46\n45000,40\n")
+    args = ["fit", str(log), "--period-log", str(periods), "--orders", "2", "--out", str(out)]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "period log (40.00–46.00 s in force)" in text
+    model = next(line for line in text.splitlines() if line.startswith("model "))
+    name = model.split()[1]
+    assert name in ("r=2+AR(1)", "r=2+AR(1)+walk", "level", "level+AR(1)"), model
+    candidates = text.split("candidates ")[1].split("\nnoise ")[0]
+    assert "r=2+AR(1)" in candidates and "level (q_0" in candidates
+    assert f"# model: {name}\n" in (out / "fit.yaml").read_text()
+
+
+def test_cli_fit_bad_period_log_is_one_line(tmp_path, capsys):
+    t, z = _synthetic(4, duration=400.0)
+    log, periods = tmp_path / "flight.csv", tmp_path / "perioddata.csv"
+    _WriteLog(log, t, z)
+    periods.write_text("0,46\n100,x\n")
+    out = str(tmp_path / "o")
+    assert main(["fit", str(log), "--period-log", str(periods), "--out", out]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"eaplan-drake fit: {periods}:2"), err
+    assert main(["fit", str(log), "--period-log", str(tmp_path / "none.csv"), "--out", out]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "none.csv: cannot read" in err[0], err
+    periods.write_text("0,46\n")
+    assert main(["fit", str(log), "--period", "46", "--period-log", str(periods)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["eaplan-drake fit: give either --period or --period-log, not both"]
+    assert not (tmp_path / "o").exists()
+
+
+def test_model_names():
+    from eaplan_drake.fit import ModelName
+
+    ar = NoiseParameters(1.0, 1e-6, 0.0, 12.0, 0.1)
+    assert ModelName(4, ar) == "r=4+AR(1)"
+    assert ModelName(0, dc.replace(ar, mean_process_noise=1e-3)) == "r=0+AR(1)+walk"
+    assert ModelName(0, NoiseParameters(1.0, 0.0, 1e-3), "local") == "level"
+    assert ModelName(0, ar, "r0") == "level+AR(1)"
+    assert ModelName(3, NoiseParameters(1.0, 1e-6)) == "r=3"
+    with pytest.raises(ValueError, match="horizon"):
+        ModelName(0, ar, "other")
+
+
+def _Run(args, threads):
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if threads is not None:
+        env["OPENBLAS_NUM_THREADS"] = str(threads)
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
+    return subprocess.run(
+        [sys.executable, *args], env=env, capture_output=True, text=True, timeout=300
+    )
+
+
+def test_cli_sets_one_blas_thread_before_numpy_unless_set():
+    code = "import os, eaplan_drake.cli as c; "
+    code += "print(c.BLAS_THREADS_SET_BEFORE_NUMPY, os.environ['OPENBLAS_NUM_THREADS'])"
+    assert _Run(["-c", code], None).stdout.split() == ["True", "1"]
+    assert _Run(["-c", code], 2).stdout.split() == ["True", "2"]
+
+
+@pytest.mark.slow
+def test_cli_fit_result_does_not_depend_on_blas_threads(tmp_path):
+    t, z = _synthetic(6, duration=400.0)
+    log = tmp_path / "flight.csv"
+    _WriteLog(log, t, z)
+    fragments = []
+    for threads in (1, 2):
+        out = tmp_path / f"o{threads}"
+        args = ["-m", "eaplan_drake.cli", "fit", str(log), "--period", "46", "--orders", "0,3"]
+        done = _Run([*args, "--out", str(out)], threads)
+        assert done.returncode == 0, done.stderr
+        fragments.append((out / "fit.yaml").read_text())
+    assert fragments[0] == fragments[1]
