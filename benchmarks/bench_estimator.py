@@ -124,14 +124,14 @@ def Verdict(kind: str, scores: dict) -> str:
     return "no target: (the paper model's signal; shown for reference)"
 
 
-def SummaryRow(name: str, order: int, scores: dict, verdict: str) -> str:
+def SummaryRow(name: str, model: str, scores: dict, verdict: str) -> str:
     """One row: per horizon "model / best baseline (its initials)", and the target's verdict."""
     cells = []
     for h in scores["model"]:
         best = min(BASELINES, key=lambda b: scores[b][h][0])
         short = "".join(w[0] for w in best.split())
         cells.append(f"{scores['model'][h][0]:.3g} / {scores[best][h][0]:.3g} ({short})")
-    return f"| {name} | {order} | " + " | ".join(cells) + f" | {verdict.split(':')[0]} |"
+    return f"| {name} | {model} | " + " | ".join(cells) + f" | {verdict.split(':')[0]} |"
 
 
 def Table(scores: dict) -> str:
@@ -159,7 +159,7 @@ def main(argv=None) -> int:
     if not reference.is_dir():
         print(f"note: reference data absent at {reference} (set {REFERENCE_ENV}); synthetic only")
     summary = [
-        "| signal | r | 1 step | T/4 | T/2 | T | target |",
+        "| signal | model | 1 step | T/4 | T/2 | T | target |",
         "|---|---|---|---|---|---|---|",
     ]
     for name, kind, t, y, period, note in Cases(reference):
@@ -180,7 +180,8 @@ def main(argv=None) -> int:
             f"{result.power.size} samples at {fit.time_step:.3g} s, T = {fit.period:.2f} s "
             f"({result.period_source})"
             + (f" ({note})" if note else "")
-            + f"; fitted r = {fit.order}, τ = {n.aperiodic_time_constant:.3g} s, "
+            + f"; fitted {fit.model_name} (r = {fit.order}), "
+            f"τ = {n.aperiodic_time_constant:.3g} s, "
             f"σ_d = {math.sqrt(0.5 * n.aperiodic_noise * n.aperiodic_time_constant):.3g} W, "
             f"σ_v = {math.sqrt(n.measurement_noise):.3g} W, level noise q_0 = "
             f"{n.mean_process_noise:.2g} W² per step ({time.perf_counter() - start:.0f} s)\n"
@@ -188,7 +189,7 @@ def main(argv=None) -> int:
         print(Table(result.scores))
         verdict = Verdict(kind, result.scores)
         print(f"\n{verdict}")
-        summary.append(SummaryRow(name, fit.order, result.scores, verdict))
+        summary.append(SummaryRow(name, fit.model_name, result.scores, verdict))
         sys.stdout.flush()
     print("\n### Summary: model RMSE / best baseline RMSE [W] (which baseline)\n")
     print("\n".join(summary))
