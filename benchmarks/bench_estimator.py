@@ -6,7 +6,9 @@ last value, one-period moving average and seasonal naive (value one period befor
 
 Signals:
 - synthetic: periodic power (T = 46 s) + AR(1) load (σ, τ) + white noise σ_v = 0.5 W, 0.5 s;
-- the authors' simulation logs ``plan_X/energy_resized.csv`` (T: their last measured period);
+- the authors' simulation logs ``plan_X/energy_resized.csv`` (T: their last measured period;
+  plans i and ii, whose c1 and hence T change mid-flight, also with the period in force T_k from
+  their running estimate ``perioddata.csv``, used by the model and the baselines alike);
 - the Opterra flight (``opterra_flight/pprz_throttle.csv`` and the Paparazzi energy log
   ``pprz_energy.csv``), T = 49.5 s from its track ``path_sim.csv`` (1 Hz);
 - optionally a PX4 flight: ``$EAPLAN_PX4_DIR`` holding the authors' ``flightsw1`` export
@@ -15,7 +17,8 @@ Signals:
 
 Reference data: ``$EAPLAN_REFERENCE_DIR`` (default ``../shared/reference/seewald2022``); absent
 signals are skipped with a note. Run: ``python3 benchmarks/bench_estimator.py [--quick]``
-(``--orders 24,32,48,64,72 --only "plan II"``: the high orders a strictly periodic log needs).
+(``--orders 4,8,16,24,48 --only "plan II"``: other candidate orders, one signal). BLAS runs on
+one thread (``OPENBLAS_NUM_THREADS``, unless set).
 """
 
 import argparse
@@ -25,11 +28,20 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+# Small matrices (m ≤ 130): OpenBLAS threads only contend on a shared machine (a 98×98 product
+# took 5.6 ms with its default threads on the 2 loaded cores here, 0.11 ms with one).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from eaplan_drake.energy_model import EstimatePeriodWithConfidence
-from eaplan_drake.fit import BASELINES, ORDERS, FitPowerLog, SyntheticPower
-from eaplan_drake.powerlog import REFERENCE_ENV, ReadPowerLog, ReferenceDirectory
+import numpy as np  # noqa: E402
+
+from eaplan_drake.energy_model import EstimatePeriodWithConfidence  # noqa: E402
+from eaplan_drake.fit import BASELINES, ORDERS, FitPowerLog, SyntheticPower  # noqa: E402
+from eaplan_drake.powerlog import (  # noqa: E402
+    REFERENCE_ENV,
+    ReadPeriodLog,
+    ReadPowerLog,
+    ReferenceDirectory,
+)
 
 
 def Synthetic(seed: int, tau: float, sigma: float, noise: float = 0.5, duration: float = 1200.0):
@@ -49,8 +61,11 @@ def Cases(reference: Path):
         if not folder.is_dir():
             continue
         log = ReadPowerLog(folder / "energy_resized.csv", power_column=1)
-        period = float(np.loadtxt(folder / "perioddata.csv", delimiter=",")[-1, 1])
-        yield f"authors' plan {plan}", "authors", log.times, log.power, period, ""
+        period_log = ReadPeriodLog(folder / "perioddata.csv")
+        yield f"authors' plan {plan}", "authors", log.times, log.power, period_log[1][-1], ""
+        if plan in ("i", "ii"):  # c1, hence T, changes mid-flight: the period in force
+            name = f"authors' plan {plan}, period log"
+            yield name, "authors", log.times, log.power, period_log, "T_k: perioddata.csv"
     opterra = reference / "opterra_flight"
     if opterra.is_dir():
         path = np.loadtxt(opterra / "path_sim.csv", delimiter=",")
@@ -109,14 +124,14 @@ def Verdict(kind: str, scores: dict) -> str:
     return "no target: (the paper model's signal; shown for reference)"
 
 
-def SummaryRow(name: str, order: int, scores: dict, verdict: str) -> str:
+def SummaryRow(name: str, model: str, scores: dict, verdict: str) -> str:
     """One row: per horizon "model / best baseline (its initials)", and the target's verdict."""
     cells = []
     for h in scores["model"]:
         best = min(BASELINES, key=lambda b: scores[b][h][0])
         short = "".join(w[0] for w in best.split())
         cells.append(f"{scores['model'][h][0]:.3g} / {scores[best][h][0]:.3g} ({short})")
-    return f"| {name} | {order} | " + " | ".join(cells) + f" | {verdict.split(':')[0]} |"
+    return f"| {name} | {model} | " + " | ".join(cells) + f" | {verdict.split(':')[0]} |"
 
 
 def Table(scores: dict) -> str:
@@ -144,7 +159,7 @@ def main(argv=None) -> int:
     if not reference.is_dir():
         print(f"note: reference data absent at {reference} (set {REFERENCE_ENV}); synthetic only")
     summary = [
-        "| signal | r | 1 step | T/4 | T/2 | T | target |",
+        "| signal | model | 1 step | T/4 | T/2 | T | target |",
         "|---|---|---|---|---|---|---|",
     ]
     for name, kind, t, y, period, note in Cases(reference):
@@ -154,14 +169,19 @@ def main(argv=None) -> int:
             print(f"\n### {name}\nskipped: {note}")
             continue
         start = time.perf_counter()
-        result = FitPowerLog(t, y, period, orders=orders)
+        if isinstance(period, tuple):
+            result = FitPowerLog(t, y, orders=orders, period_log=period)
+        else:
+            result = FitPowerLog(t, y, period, orders=orders)
         fit = result.fit
         n = fit.noise
         print(f"\n### {name}")
         print(
-            f"{result.power.size} samples at {fit.time_step:.3g} s, T = {period:.2f} s"
+            f"{result.power.size} samples at {fit.time_step:.3g} s, T = {fit.period:.2f} s "
+            f"({result.period_source})"
             + (f" ({note})" if note else "")
-            + f"; fitted r = {fit.order}, τ = {n.aperiodic_time_constant:.3g} s, "
+            + f"; fitted {fit.model_name} (r = {fit.order}), "
+            f"τ = {n.aperiodic_time_constant:.3g} s, "
             f"σ_d = {math.sqrt(0.5 * n.aperiodic_noise * n.aperiodic_time_constant):.3g} W, "
             f"σ_v = {math.sqrt(n.measurement_noise):.3g} W, level noise q_0 = "
             f"{n.mean_process_noise:.2g} W² per step ({time.perf_counter() - start:.0f} s)\n"
@@ -169,7 +189,7 @@ def main(argv=None) -> int:
         print(Table(result.scores))
         verdict = Verdict(kind, result.scores)
         print(f"\n{verdict}")
-        summary.append(SummaryRow(name, fit.order, result.scores, verdict))
+        summary.append(SummaryRow(name, fit.model_name, result.scores, verdict))
         sys.stdout.flush()
     print("\n### Summary: model RMSE / best baseline RMSE [W] (which baseline)\n")
     print("\n".join(summary))

@@ -19,18 +19,30 @@ The first k_0 samples (one
 period, at most a fifth of the record) are the filter's start-up from a diffuse prior and are left
 out. From then on the filter runs with the steady-state gain (:func:`SteadyStateCovariance`,
 the time-invariant filter's limit; this makes ℓ cheap and is the standard steady-state
-approximation of the exact likelihood).
+approximation of the exact likelihood). With a period that changes (below) the filter starts
+at that covariance and runs the exact time-varying recursion (s_k varies).
 
-**Order by a held-out criterion.** :func:`FitPowerModel` fits candidate orders on the first 70 %
-of the training record and keeps the one whose predictions at 1 step, T/4, T/2 and T ahead have
-the smallest mean squared error (summed over the four horizons) on the remaining 30 %. The same
-criterion decides whether the level random walk q_0 is kept (a structural choice like r: the
-likelihood prefers a quickly adapting level, best one step ahead but not always T ahead); the
-chosen structure's noise is then refitted by likelihood on the whole training record.
+**Order by a held-out criterion.** :func:`FitPowerModel` fits every candidate order (noise by
+likelihood, Nelder–Mead from the default start and from the previous order's optimum: two
+local optima, both candidates) on the first 70 % of the training record and keeps the one whose
+predictions at 1 step, T/4, T/2 and T ahead have the smallest mean squared error, summed over
+the four horizons, for the targets in the remaining 30 % (:func:`MultiStepError`; origins before
+the split count, so every horizon has the same held-out targets). The same criterion decides
+whether the level random walk q_0 is kept (a structural choice like r: the likelihood prefers a
+quickly adapting level, best one step ahead but not always T ahead), and compares two levels
+fitted for the horizons (:func:`FitLevelNoise`: the local level, y = α0 a random walk, and the
+r = 0 model with its q_0 re-chosen), whose q_0 is chosen by the multi-step error on the first
+70 % itself. The chosen structure's noise is then refitted on the whole training record.
+
+**A period that changes.** Every function taking ``period`` also takes T_k [s] per sample (the
+period in force, :func:`PeriodInForce` of a period log): the filter is then the exact
+time-varying one, re-discretised per T_k as the estimator does (:func:`FilterPowerSeries`), the
+prediction holds the period in force at its origin, and the baselines use it too.
 
 **Scores.** :func:`ScorePredictions` fits on the first half of a log and scores RMSE and MAE [W]
 of the predictions made from origins in the second half, against three baselines: last value,
-one-period moving average, and the value one period before the target (seasonal naive).
+one-period moving average, and the value one period before the target (seasonal naive; both
+with the period in force at the origin when it varies).
 """
 
 import dataclasses as dc
@@ -45,8 +57,9 @@ from eaplan_drake.energy_model import (
     OutputMatrix,
     ProcessNoiseMatrix,
     StateSize,
+    TransitionMatrices,
 )
-from eaplan_drake.estimator import KalmanGain
+from eaplan_drake.estimator import KalmanGain, KalmanPredict, KalmanUpdate
 
 __all__ = [
     "BASELINES",
@@ -60,7 +73,13 @@ __all__ = [
     "PlotLogFit",
     "HorizonSteps",
     "InnovationLogLikelihood",
+    "FitLevelNoise",
+    "LEVEL_RATIOS",
+    "ModelName",
+    "MultiStepError",
     "ORDERS",
+    "PeriodInForce",
+    "PeriodSeries",
     "NoiseParameters",
     "PowerModelFit",
     "PredictAhead",
@@ -165,38 +184,101 @@ def SteadyStateCovariance(Ad, c, Q, R: float, iterations: int = 60) -> np.ndarra
     return H
 
 
-def _InitialState(z, time_step: float, model, period: float):
-    """q̂(0): least-squares Fourier fit of the first (up to) two periods (d = 0)."""
+def PeriodSeries(period, n: int) -> tuple[float, np.ndarray | None]:
+    """(T_nominal [s], T_k [s] per sample or None) of a ``period`` argument for n samples.
+
+    ``period`` is one T [s] (returns (T, None)) or n periods T_k [s], the period in force at each
+    sample (a time-varying period; returns (T_{n−1}, T_k), or (T, None) when all are equal). The
+    nominal period, the last one in force, sets the horizons T/4, T/2, T and the burn-in.
+    """
+    if np.ndim(period) == 0:
+        T = float(period)
+        if not (math.isfinite(T) and T > 0.0):
+            raise ValueError(f"period: must be finite and > 0 [s], got {period!r}")
+        return T, None
+    Ts = np.asarray(period, dtype=float).reshape(-1)
+    if Ts.size != n:
+        raise ValueError(f"period: needs one T per sample ({n}), got {Ts.size}")
+    if not np.all(np.isfinite(Ts) & (Ts > 0.0)):
+        raise ValueError("period: every T_k must be finite and > 0 [s]")
+    if np.all(Ts == Ts[0]):
+        return float(Ts[0]), None
+    return float(Ts[-1]), Ts
+
+
+def PeriodInForce(times, period_times, periods) -> np.ndarray:
+    """T_k [s] at each of ``times`` [s]: the last of ``periods`` stamped at or before it (the
+    first one before the first stamp), i.e. the period a running estimator had in force."""
+    tp = np.asarray(period_times, dtype=float).reshape(-1)
+    Tp = np.asarray(periods, dtype=float).reshape(-1)
+    if tp.size == 0 or tp.shape != Tp.shape or not np.all(np.diff(tp) >= 0.0):
+        raise ValueError("period log: needs increasing times and one period per time")
+    i = np.searchsorted(tp, np.asarray(times, dtype=float), side="right") - 1
+    return Tp[np.clip(i, 0, tp.size - 1)]
+
+
+def _InitialState(z, time_step: float, model, period):
+    """q̂(0): least-squares Fourier fit of the first (up to) two periods (d = 0).
+
+    With a time-varying period T_k the regressors are those of the phase
+    θ_k = 2π Σ_{i<k} Δt/T_i (the product of the re-discretised rotations): the fit runs in the
+    warped time θ_k T_0 / 2π with the period T_0.
+    """
     r = int(model.order) if isinstance(model, AugmentedOrder) else int(model)
-    n = min(z.size, max(2 * r + 2, int(round(2.0 * period / time_step))))
-    t = time_step * np.arange(n)
-    q = FitFourierSeries(t, z[:n], r, period, at_time=0.0)
+    nominal, Ts = PeriodSeries(period, z.size)
+    n = min(z.size, max(2 * r + 2, int(round(2.0 * nominal / time_step))))
+    if Ts is None:
+        t, T0 = time_step * np.arange(n), nominal
+    else:
+        T0 = float(Ts[0])
+        t = np.concatenate(([0.0], np.cumsum(time_step * T0 / Ts[: n - 1])))
+    q = FitFourierSeries(t, z[:n], r, T0, at_time=0.0)
     return np.append(q, 0.0) if StateSize(model) > q.size else q
 
 
 def FilterPowerSeries(
-    z, time_step: float, order: int, period: float, noise: NoiseParameters, initial_state=None
+    z, time_step: float, order: int, period, noise: NoiseParameters, initial_state=None
 ):
-    """Run the steady-state Kalman filter over z (uniform step Δt [s]).
+    """Run the Kalman filter over z (uniform step Δt [s]) from the steady-state covariance.
 
     q̂(0) is the least-squares Fourier fit of the first two periods (so the start-up is short),
-    the gain the steady-state one of (A_d, C, Q, R) (:func:`SteadyStateCovariance`). Returns
-    (q̂ (N×m) filtered states after the update at each k, e (N) innovations [W], s innovation
-    variance [W²]). ``initial_state`` replaces that q̂(0) (m entries).
+    P⁻(0) = P⁻∞ of (A_d(T_0), C, Q, R) (:func:`SteadyStateCovariance`). With one period T the
+    covariance stays there and the filter is the steady-state one (one gain). With a period T_k
+    per sample (``period`` an array, see :func:`PeriodSeries`) it is the exact time-varying
+    filter of the estimator: :func:`~eaplan_drake.estimator.KalmanUpdate` with z_k, then
+    :func:`~eaplan_drake.estimator.KalmanPredict` with A_d(T_k) re-discretised as
+    :class:`~eaplan_drake.estimator.EnergyEstimator` does when its period input changes
+    (:class:`~eaplan_drake.energy_model.TransitionMatrices`). Returns (q̂ (N×m) filtered states
+    after the update at each k, e (N) innovations [W], s innovation variance [W²]: one number
+    for one period, N for T_k). ``initial_state`` replaces that q̂(0) (m entries).
     """
     z = np.asarray(z, dtype=float).reshape(-1)
+    nominal, Ts = PeriodSeries(period, z.size)
     model = noise.Model(order)
-    Ad, _ = DiscreteEnergyMatrices(model, period, time_step)
     c = OutputMatrix(model)[0]
     m = c.size
     Q = ProcessNoiseMatrix(
         model, noise.process_noise, noise.mean_process_noise, noise.aperiodic_noise, time_step
     )
     R = float(noise.measurement_noise)
+    q0 = _InitialState(z, time_step, model, period) if initial_state is None else initial_state
+    if Ts is not None:
+        transition = TransitionMatrices(model, time_step)
+        P = SteadyStateCovariance(transition(Ts[0]), c, Q, R)
+        states = np.empty((z.size, m))
+        e, s = np.empty(z.size), np.empty(z.size)
+        q = np.asarray(q0, dtype=float)
+        for j in range(z.size):
+            e[j] = z[j] - float(c @ q)
+            s[j] = float(c @ P @ c) + R
+            q, P = KalmanUpdate(q, P, c, R, z[j])
+            states[j] = q
+            q, P = KalmanPredict(q, P, transition(Ts[j]), Q)
+        return states, e, s
+    Ad, _ = DiscreteEnergyMatrices(model, nominal, time_step)
     K, _, s = KalmanGain(SteadyStateCovariance(Ad, c, Q, R), c, R)
     F = Ad - np.outer(Ad @ K, c)  # q⁻ ← A_d (I − K c) q⁻ + A_d K z
     G = Ad @ K
-    q0 = _InitialState(z, time_step, model, period) if initial_state is None else initial_state
     n = z.size
     states = np.empty((n, m))
     e = np.empty(n)
@@ -214,13 +296,16 @@ def _BurnIn(n: int, period_steps: int) -> int:
 
 
 def InnovationLogLikelihood(
-    z, time_step: float, order: int, period: float, noise: NoiseParameters, initial_state=None
+    z, time_step: float, order: int, period, noise: NoiseParameters, initial_state=None
 ) -> float:
-    """ℓ(θ) of the module docstring [-] (higher is better)."""
+    """ℓ(θ) of the module docstring [-] (higher is better); ``period`` as in
+    :func:`FilterPowerSeries`."""
     _, e, s = FilterPowerSeries(z, time_step, order, period, noise, initial_state)
-    k0 = _BurnIn(e.size, int(round(period / time_step)))
+    nominal, _ = PeriodSeries(period, e.size)
+    k0 = _BurnIn(e.size, int(round(nominal / time_step)))
     e = e[k0:]
-    return float(-0.5 * (e.size * math.log(2.0 * math.pi * s) + np.sum(e * e) / s))
+    s = np.broadcast_to(s, (e.size + k0,))[k0:]
+    return float(-0.5 * (np.sum(np.log(2.0 * math.pi * s)) + np.sum(e * e / s)))
 
 
 def _NelderMead(f, x0, step, max_evals: int = 120, tol: float = 1e-4):
@@ -266,7 +351,7 @@ def FitNoise(
     z,
     time_step: float,
     order: int,
-    period: float,
+    period,
     aperiodic: bool = True,
     max_evaluations: int = 120,
     start: NoiseParameters | None = None,
@@ -277,11 +362,12 @@ def FitNoise(
     θ = log10 of (R, q_n, q_0, q_d, τ) (q_d, τ only with ``aperiodic``; q_0 searched when
     ``level`` is True, else fixed: 0 for False, the value for a number); τ in [Δt, 50 T].
     Nelder–Mead from ``start`` (default: R from the lag-one differences, small q's, τ = 10 s).
+    ``period``: T [s] or T_k per sample (:func:`PeriodSeries`; the bound uses the nominal T).
     """
     z = np.asarray(z, dtype=float).reshape(-1)
     dt = float(time_step)
     var = max(float(np.var(z)), 1e-9)
-    tau_lo, tau_hi = dt, 50.0 * float(period)
+    tau_lo, tau_hi = dt, 50.0 * PeriodSeries(period, z.size)[0]
     search_level = level is True
     fixed_level = 0.0 if search_level or level is False else float(level)
     names = ["R", "q_n"] + (["q_0"] if search_level else []) + (["q_d", "tau"] if aperiodic else [])
@@ -330,28 +416,48 @@ def HorizonSteps(period: float, time_step: float) -> tuple[int, int, int, int]:
     return 1, max(1, round(P / 4)), max(1, round(P / 2)), P
 
 
-def PredictAhead(states, order: int, period: float, time_step: float, noise, steps: int):
-    """ŷ_{k+H|k} = C A_dᴴ q̂_k [W] for every filtered state q̂_k (H = ``steps``)."""
+def PredictAhead(states, order: int, period, time_step: float, noise, steps: int):
+    """ŷ_{k+H|k} = C A_d(T_k)ᴴ q̂_k [W] for every filtered state q̂_k (H = ``steps``).
+
+    A_d(T)ᴴ is the exact A_d of the step H Δt (the rotation angles add, φᴴ = exp(−H Δt/τ)). With
+    a period T_k per sample the period in force at the origin k is held over the horizon, as the
+    estimator's and the planner's prediction do.
+    """
+    states = np.asarray(states)
     model = noise.Model(order)
-    Ad, _ = DiscreteEnergyMatrices(model, period, time_step)
-    row = OutputMatrix(model)[0] @ np.linalg.matrix_power(Ad, int(steps))
-    return np.asarray(states) @ row
+    C = OutputMatrix(model)[0]
+    nominal, Ts = PeriodSeries(period, states.shape[0])
+    if Ts is None:
+        return states @ (C @ DiscreteEnergyMatrices(model, nominal, int(steps) * time_step)[0])
+    values, which = np.unique(Ts, return_inverse=True)
+    rows = np.array(
+        [C @ DiscreteEnergyMatrices(model, T, int(steps) * time_step)[0] for T in values]
+    )
+    return np.einsum("km,km->k", states, rows[which])
 
 
-def BaselinePrediction(name: str, z, period_steps: int, steps: int) -> np.ndarray:
-    """Baseline prediction of z_{k+H} made at k (NaN where it needs samples before the log)."""
+def BaselinePrediction(name: str, z, period_steps, steps: int) -> np.ndarray:
+    """Baseline prediction of z_{k+H} made at k (NaN where it needs samples before the log).
+
+    ``period_steps`` P: one period in samples, or P_k per origin (the period in force at k; the
+    moving average then spans the last P_k samples). Seasonal naive is z_{k+H−jP} with
+    j = ⌈H/P⌉ whole periods back (j = 1 for H ≤ P), so it never uses a sample after k.
+    """
     z = np.asarray(z, dtype=float)
-    n, P, H = z.size, int(period_steps), int(steps)
+    n, H = z.size, int(steps)
+    P = np.broadcast_to(np.asarray(period_steps, dtype=int), (n,))
+    k = np.arange(n)
     out = np.full(n, np.nan)
     if name == "last value":
         out[:] = z
     elif name == "moving average":
         c = np.concatenate(([0.0], np.cumsum(z)))
-        k = np.arange(P - 1, n)
-        out[k] = (c[k + 1] - c[k + 1 - P]) / P
+        ok = k + 1 - P >= 0
+        out[ok] = (c[k[ok] + 1] - c[k[ok] + 1 - P[ok]]) / P[ok]
     elif name == "seasonal naive":
-        k = np.arange(max(0, P - H), n)
-        out[k] = z[k + H - P]
+        back = P * -(-H // P)  # ⌈H/P⌉ periods
+        ok = k + H - back >= 0
+        out[ok] = z[k[ok] + H - back[ok]]
     else:
         raise ValueError(f"baseline: one of {BASELINES}, got {name!r}")
     return out
@@ -369,7 +475,7 @@ class PowerModelFit:
     order: int
     """r [-]."""
     period: float
-    """T [s]."""
+    """T [s] (with a time-varying period: the last one in force in the training record)."""
     time_step: float
     """Δt of the log (after resampling) [s]."""
     noise: NoiseParameters
@@ -379,7 +485,12 @@ class PowerModelFit:
     mean_power: float
     """Mean of the training record [W]."""
     candidates: list
-    """(order r, level intensity q_0 [W²/step], held-out score [W²]) of every candidate tried."""
+    """(order r, level intensity q_0 [W²/step], held-out score [W²], name) of every candidate
+    tried, in order: the orders, the best order without q_0, then the levels fitted for the
+    horizons (local level, then r = 0 with its q_0 re-chosen); name as :attr:`model_name`."""
+    model_name: str = ""
+    """The chosen model in words (:func:`ModelName`): "r=4+AR(1)", "level", "level+AR(1)", …;
+    the two levels fitted for the horizons have r = 0 like the ordinary r = 0 model."""
 
     def ScenarioFragment(self, estimator_rate: float = 100.0) -> str:
         """YAML for ``simulate`` with the fitted model (energy_model and estimator keys).
@@ -391,8 +502,10 @@ class PowerModelFit:
         scale = (1.0 / estimator_rate) / self.time_step
         qn = self.noise.process_noise * scale
         tau = self.noise.aperiodic_time_constant
+        name = self.model_name or ModelName(self.order, self.noise)
         lines = [
             "# fitted by eaplan-drake fit (innovation likelihood; order by held-out error)",
+            f"# model: {name}",
             "sensor:",
             f"  noise_std: {_YamlFloat(math.sqrt(self.noise.measurement_noise))}",
             "energy_model:",
@@ -412,6 +525,20 @@ class PowerModelFit:
         return "\n".join(lines) + "\n"
 
 
+def ModelName(order: int, noise: NoiseParameters, horizon: str = "none") -> str:
+    """The model in words: "r=<r>" for the Fourier model of order r, with "+AR(1)" when it has
+    the aperiodic load (τ > 0) and "+walk" when its level α0 has the random walk q_0 > 0;
+    ``horizon`` "local" (the local level of :func:`FitLevelNoise`) is "level", "r0" (the r = 0
+    model with q_0 re-chosen for the horizons) "level+AR(1)" (or "level" without τ)."""
+    aperiodic = "+AR(1)" if noise.aperiodic_time_constant > 0.0 else ""
+    if horizon in ("local", "r0"):
+        return "level" + aperiodic
+    if horizon != "none":
+        raise ValueError(f"horizon: one of none, local, r0, got {horizon!r}")
+    walk = "+walk" if noise.mean_process_noise > 0.0 else ""
+    return f"r={int(order)}{aperiodic}{walk}"
+
+
 def _YamlFloat(x: float) -> str:
     """A float YAML 1.1 reads as a float (a dot, a signed exponent), ``.inf`` for ∞."""
     x = float(x)
@@ -423,101 +550,183 @@ def _YamlFloat(x: float) -> str:
     return f"{x:.6e}"
 
 
-def _HeldOutScore(z, dt, order, period, noise, start: int) -> float:
-    states, _, _ = FilterPowerSeries(z, dt, order, period, noise)
+def MultiStepError(z, time_step: float, order: int, period, noise, first_target: int) -> float:
+    """Σ over H ∈ {1 step, T/4, T/2, T} of the mean squared error [W²] of ŷ_{k+H|k}
+    (:func:`PredictAhead` after :func:`FilterPowerSeries` over z) for the targets
+    k + H ≥ ``first_target`` (every horizon has the same targets; each prediction uses z up to
+    its origin k only). The held-out criterion of :func:`FitPowerModel` (targets after the
+    fitting window) and the fitting criterion of :func:`FitLevelNoise`."""
+    z = np.asarray(z, dtype=float).reshape(-1)
+    states, _, _ = FilterPowerSeries(z, time_step, order, period, noise)
     total = 0.0
-    for H in HorizonSteps(period, dt):
-        origins = np.arange(start, z.size - H)
+    for H in HorizonSteps(PeriodSeries(period, z.size)[0], time_step):
+        origins = np.arange(max(int(first_target) - H, 0), z.size - H)
         if origins.size == 0:
             continue
-        pred = PredictAhead(states, order, period, dt, noise, H)
+        pred = PredictAhead(states, order, period, time_step, noise, H)
         total += _Errors(pred, z, origins, H)[0] ** 2
     return total
 
 
-ORDERS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
+LEVEL_RATIOS = tuple(10.0 ** (0.25 * i) for i in range(-32, 5))
+"""Candidate q_0/R [-] of :func:`FitLevelNoise` (10⁻⁸ … 10, four per decade)."""
+
+
+def FitLevelNoise(
+    z, time_step: float, period: float, base: NoiseParameters | None = None, ratios=LEVEL_RATIOS
+) -> NoiseParameters:
+    """A level fitted for the multi-step horizons: q_0 of an r = 0 model chosen by
+    :func:`MultiStepError` on z (targets after the burn-in and one period T [s], so every origin
+    is past the burn-in).
+
+    Without ``base`` the model is the local level (y = α0, α0 a random walk, no aperiodic
+    state): its filter is an exponentially weighted mean whose gain depends on λ = q_0/R only;
+    λ is the best of ``ratios``, and R [W²] the innovation likelihood's maximiser for that λ,
+    R = mean(e_k²/s̃_k) with s̃ the innovation variance for R = 1 (R only scales the
+    likelihood). Returns NoiseParameters(R, 0, λR). With ``base`` (the r = 0 noise fitted by
+    likelihood, e.g. with the AR(1) load) only q_0 = λR is re-chosen among 0 and λ ∈ ``ratios``
+    and the rest is kept: the fast load carries the next step, the slow level the horizon.
+    """
+    z = np.asarray(z, dtype=float).reshape(-1)
+    P = max(1, int(round(period / time_step)))
+    k0 = _BurnIn(z.size, P)
+    first = min(k0 + P, z.size - 2)
+    unit = base if base is not None else NoiseParameters(1.0, 0.0, 0.0)
+    R = unit.measurement_noise
+    trials = [dc.replace(unit, mean_process_noise=float(lam) * R) for lam in ratios]
+    if base is not None:
+        trials.append(dc.replace(unit, mean_process_noise=0.0))
+    errors = [MultiStepError(z, time_step, 0, period, noise, first) for noise in trials]
+    best = trials[int(np.argmin(errors))]
+    if base is not None:
+        return best
+    _, e, s = FilterPowerSeries(z, time_step, 0, period, best)
+    R = max(float(np.mean(e[k0:] ** 2 / s)), 1e-12 * max(float(np.var(z)), 1e-9))
+    return NoiseParameters(R, 0.0, best.mean_process_noise * R)
+
+
+ORDERS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
 """Candidate Fourier orders of :func:`FitPowerModel` (those with 2r + 1 ≤ samples per period)."""
 
 
 def FitPowerModel(
     z,
     time_step: float,
-    period: float,
+    period,
     orders=ORDERS,
     aperiodic: bool = True,
     max_evaluations: int = 120,
+    local_level: bool = True,
 ) -> PowerModelFit:
     """Fit order and noise to a uniform power series z [W] (step Δt [s], period T [s]).
 
-    The order is chosen among ``orders`` (those with 2r + 1 ≤ T/Δt, in increasing order, until
-    two in a row do not improve) by the held-out criterion of the module docstring, then whether
-    the level random walk q_0 helps (held out too); each noise search starts from the previous
-    optimum. ``aperiodic`` adds the AR(1) load state (False: the paper's model).
+    ``period`` is T [s] or T_k per sample (:func:`PeriodSeries`; the nominal T sets the
+    horizons). Every order of ``orders`` with 2r + 1 ≤ T/Δt has its noise fitted by likelihood on
+    the first 70 % (from the default start and from the previous order's higher-likelihood
+    optimum; both optima are candidates) and is scored by :func:`MultiStepError` on the last
+    30 % (the held-out criterion of the module docstring); then whether the level random walk
+    q_0 helps the best order (held out too); with ``local_level`` the two levels of
+    :func:`FitLevelNoise` (the local level, and r = 0 with q_0 re-chosen; fitted on the first
+    70 %) are candidates scored the same way. The chosen structure's noise is refitted on the
+    whole record, from the chosen optimum (likelihood; the levels: :func:`FitLevelNoise`).
+    ``aperiodic`` adds the AR(1) load state to the Fourier candidates (False: the paper's model).
     """
     z = np.asarray(z, dtype=float).reshape(-1)
-    if not (math.isfinite(period) and period > 0.0):
-        raise ValueError(f"period: must be finite and > 0 [s], got {period!r}")
-    P = int(round(period / time_step))
+    nominal, Ts = PeriodSeries(period, z.size)
+    P = int(round(nominal / time_step))
     if z.size < 2 * P + 8:
         raise ValueError(
-            f"power log: {z.size} samples cover less than two periods of {period:g} s "
+            f"power log: {z.size} samples cover less than two periods of {nominal:g} s "
             f"at {time_step:g} s; record longer or give a shorter period"
         )
     split = int(0.7 * z.size)
+    head = nominal if Ts is None else Ts[:split]
     candidates = []
-    best = None
-    noise = None
-    worse = 0
-    for r in sorted(int(r) for r in orders):
+    best = warm = level_start = None
+    for r in sorted({int(r) for r in orders}):
         if 2 * r + 1 > P:  # more harmonics than one period of samples resolves
             continue
-        budget = max_evaluations if noise is None else max_evaluations // 3
-        noise, _ = FitNoise(z[:split], time_step, r, period, aperiodic, budget, noise)
-        score = _HeldOutScore(z, time_step, r, period, noise, split)
-        candidates.append((r, noise.mean_process_noise, score))
-        if best is None or score < best[2]:
-            best, worse = (r, noise.mean_process_noise, score, noise), 0
-        else:
-            worse += 1
-            if worse == 2:  # two larger orders in a row did not help: stop
-                break
+        fits = [FitNoise(z[:split], time_step, r, head, aperiodic, max_evaluations)]
+        if warm is not None:  # the previous order's optimum as a second start
+            fits.append(
+                FitNoise(z[:split], time_step, r, head, aperiodic, max_evaluations // 2, warm)
+            )
+        warm = max(fits, key=lambda fit: fit[1])[0]
+        if r == 0:
+            level_start = warm
+        for noise, _ in fits:  # both likelihood optima are candidates of the held-out choice
+            score = MultiStepError(z, time_step, r, period, noise, split)
+            candidates.append((r, noise.mean_process_noise, score, ModelName(r, noise)))
+            if best is None or score < best[2]:
+                best = (r, noise.mean_process_noise, score, noise)
     if best is None:
         raise ValueError(f"orders: no candidate in {list(orders)} fits a period of {P} samples")
     # Whether the level random walk q_0 helps, by the same held-out criterion.
     r = best[0]
     fixed, _ = FitNoise(
-        z[:split], time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=False
+        z[:split], time_step, r, head, aperiodic, max_evaluations // 3, best[3], level=False
     )
-    score = _HeldOutScore(z, time_step, r, period, fixed, split)
-    candidates.append((r, 0.0, score))
+    score = MultiStepError(z, time_step, r, period, fixed, split)
+    candidates.append((r, 0.0, score, ModelName(r, fixed)))
     level = score >= best[2]
     if not level:
         best = (r, 0.0, score, fixed)
-    noise, ll = FitNoise(
-        z, time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=level
-    )
-    return PowerModelFit(r, float(period), float(time_step), noise, ll, float(z.mean()), candidates)
+    horizon = "none"  # or the level fitted for the horizons that won: "local", "r0"
+    if local_level:
+        # Levels fitted for the horizons: the local level, and the r = 0 model's q_0 re-chosen.
+        bases = {"local": None, "r0": level_start} if level_start is not None else {"local": None}
+        for name, base in bases.items():
+            walk = FitLevelNoise(z[:split], time_step, nominal, base)
+            score = MultiStepError(z, time_step, 0, nominal, walk, split)
+            candidates.append((0, walk.mean_process_noise, score, ModelName(0, walk, name)))
+            if score < best[2]:
+                best, horizon = (0, walk.mean_process_noise, score, walk), name
+    if horizon == "none":
+        noise, ll = FitNoise(
+            z, time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=level
+        )
+        return PowerModelFit(
+            r,
+            nominal,
+            float(time_step),
+            noise,
+            ll,
+            float(z.mean()),
+            candidates,
+            ModelName(r, noise),
+        )
+    base = None
+    if horizon == "r0":
+        base, _ = FitNoise(z, time_step, 0, nominal, aperiodic, max_evaluations // 3, level_start)
+    noise = FitLevelNoise(z, time_step, nominal, base)
+    ll = InnovationLogLikelihood(z, time_step, 0, nominal, noise)
+    name = ModelName(0, noise, horizon)
+    return PowerModelFit(0, nominal, float(time_step), noise, ll, float(z.mean()), candidates, name)
 
 
-def ScorePredictions(z, time_step: float, period: float, fit: PowerModelFit):
+def ScorePredictions(z, time_step: float, period, fit: PowerModelFit):
     """RMSE and MAE [W] at 1 step, T/4, T/2, T ahead from origins in the second half of z.
 
     The filter with ``fit``'s model runs over the whole record (it has seen only samples up to
-    each origin). Returns {predictor: {horizon name: (RMSE, MAE)}}, predictors "model" and
+    each origin). ``period``: T [s] or T_k per sample (:func:`PeriodSeries`; the horizons are
+    those of the nominal T, the model and the baselines use the period in force at each
+    origin). Returns {predictor: {horizon name: (RMSE, MAE)}}, predictors "model" and
     :data:`BASELINES`.
     """
     z = np.asarray(z, dtype=float).reshape(-1)
+    nominal, Ts = PeriodSeries(period, z.size)
     states, _, _ = FilterPowerSeries(z, time_step, fit.order, period, fit.noise)
-    P = max(1, int(round(period / time_step)))
+    P = max(1, int(round(nominal / time_step)))
+    Pk = P if Ts is None else np.maximum(1, np.round(Ts / time_step).astype(int))
     table = {name: {} for name in ("model",) + BASELINES}
-    for label, H in zip(HORIZON_NAMES, HorizonSteps(period, time_step), strict=True):
-        origins = np.arange(max(z.size // 2, P), z.size - H)
+    for label, H in zip(HORIZON_NAMES, HorizonSteps(nominal, time_step), strict=True):
+        origins = np.arange(max(z.size // 2, int(np.max(Pk))), z.size - H)
         if origins.size == 0:
             raise ValueError(f"power log: too short to score {label} ahead in its second half")
         pred = PredictAhead(states, fit.order, period, time_step, fit.noise, H)
         table["model"][label] = _Errors(pred, z, origins, H)
         for name in BASELINES:
-            table[name][label] = _Errors(BaselinePrediction(name, z, P, H), z, origins, H)
+            table[name][label] = _Errors(BaselinePrediction(name, z, Pk, H), z, origins, H)
     return table
 
 
@@ -534,7 +743,13 @@ class LogFit:
     power: np.ndarray
     """z on that grid [W]."""
     period_source: str
-    """Where T came from (given, or the estimate and its confidence)."""
+    """Where T came from (given, a period log, or the estimate and its confidence)."""
+    periods: np.ndarray | None = None
+    """T_k [s] in force at each grid time (from a period log), or None: one T."""
+
+    def Period(self):
+        """T [s], or T_k [s] per grid sample: the ``period`` argument of the fit functions."""
+        return self.fit.period if self.periods is None else self.periods
 
 
 def FitPowerLog(
@@ -544,17 +759,31 @@ def FitPowerLog(
     orders=ORDERS,
     aperiodic: bool = True,
     min_confidence: float = 0.5,
+    period_log=None,
 ) -> LogFit:
     """Fit on the first half of a power log and score on the second (module docstring).
 
     T is ``period`` [s] when given (the plan's period: ground truth for the motion part), else
     :func:`~eaplan_drake.energy_model.EstimatePeriodWithConfidence`; a log without a clear
-    period raises ValueError saying so (give the period).
+    period raises ValueError saying so (give the period). ``period_log`` = (times [s], T [s])
+    on the log's clock instead gives a time-varying period: T_k = :func:`PeriodInForce` at
+    each sample, for the model and the baselines alike (the horizons: the last T in force).
     """
     from eaplan_drake.energy_model import EstimatePeriodWithConfidence
 
     t, z = UniformPowerSeries(times, power)
     dt = float(t[1] - t[0])
+    if period_log is not None:
+        if period is not None:
+            raise ValueError("period: give either a period or a period log, not both")
+        Ts = PeriodInForce(t, *period_log)
+        nominal, varying = PeriodSeries(Ts, z.size)
+        half = z.size // 2
+        period = Ts if varying is not None else nominal
+        head = Ts[:half] if varying is not None else nominal
+        fit = FitPowerModel(z[:half], dt, head, orders, aperiodic)
+        source = f"period log ({np.min(Ts):.2f}–{np.max(Ts):.2f} s in force)"
+        return LogFit(fit, ScorePredictions(z, dt, period, fit), t, z, source, varying)
     if period is None:
         estimate = EstimatePeriodWithConfidence(t, z, min_confidence=min_confidence)
         if estimate.period is None:
@@ -598,12 +827,14 @@ def PlotLogFit(result: LogFit):
         a.bar(x + (i - 1.5) * width, [row[h][0] for h in horizons], width, label=name)
     a.set_xticks(x, horizons)
     a.set_ylabel("RMSE [W]")
-    a.set_title(f"prediction error, order r = {fit.order}, T = {fit.period:.1f} s")
+    name = fit.model_name or ModelName(fit.order, fit.noise)
+    a.set_title(f"prediction error, model {name}, T = {fit.period:.1f} s")
     a.legend(fontsize=8)
     dt = fit.time_step
-    H = HorizonSteps(fit.period, dt)[1]
-    states, _, _ = FilterPowerSeries(result.power, dt, fit.order, fit.period, fit.noise)
-    pred = PredictAhead(states, fit.order, fit.period, dt, fit.noise, H)
+    period = result.Period()
+    H = HorizonSteps(PeriodSeries(period, result.power.size)[0], dt)[1]
+    states, _, _ = FilterPowerSeries(result.power, dt, fit.order, period, fit.noise)
+    pred = PredictAhead(states, fit.order, period, dt, fit.noise, H)
     k = np.arange(result.power.size // 2, result.power.size - H)
     b.plot(result.times, result.power, color="0.6", lw=0.6, label="measured")
     b.plot(result.times[k + H], pred[k], color="tab:orange", lw=0.9, label="model, T/4 ahead")

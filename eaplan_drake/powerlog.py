@@ -23,7 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["REFERENCE_ENV", "PowerLog", "PowerLogError", "ReadPowerLog", "ReferenceDirectory"]
+__all__ = [
+    "AUTHORS_CONTROL_STEP",
+    "REFERENCE_ENV",
+    "PowerLog",
+    "PowerLogError",
+    "ReadPeriodLog",
+    "ReadPowerLog",
+    "ReferenceDirectory",
+]
 
 REFERENCE_ENV = "EAPLAN_REFERENCE_DIR"
 """Environment variable naming the authors' reference data (default:
@@ -223,3 +231,35 @@ def ReadPowerLog(
         raise PowerLogError(f"{path}:{line}: time does not increase ({t[bad[0] + 1]:g} s)")
     layout = "header" if has_header else "no header"
     return PowerLog(times=t - t[0], power=y, source=f"{path.name} ({layout}): {what}")
+
+
+AUTHORS_CONTROL_STEP = 0.01
+"""Step [s] of the authors' control loop: the rows of ``plan_X/ctl.csv`` and the step count in
+``plan_X/perioddata.csv``."""
+
+
+def ReadPeriodLog(path, step: float = AUTHORS_CONTROL_STEP) -> tuple[np.ndarray, np.ndarray]:
+    """(t [s], T [s]) of the authors' running period estimate ``perioddata.csv``.
+
+    Rows are (control step, T [s]), logged when T changes; t = step × ``step``. Their estimator
+    reports the time since the last lap start while it exceeds the last lap's duration (the
+    first lap: T grows from 1 s), and holds the last lap's duration otherwise. A row that is
+    not two numbers, or steps that decrease, is a :class:`PowerLogError` naming the line.
+    """
+    path = Path(path)
+    try:
+        lines = path.read_text(encoding="utf-8-sig").splitlines()
+    except (OSError, UnicodeDecodeError) as e:
+        raise PowerLogError(f"{path}: cannot read: {e}") from None
+    first = next((i for i, s in enumerate(lines) if s.strip()), None)
+    if first is None:
+        raise PowerLogError(f"{path}: empty file")
+    data = _Parse(path, lines, first, 2)
+    line = [i + 1 for i in range(first, len(lines)) if lines[i].strip()]  # 1-based, per row
+    bad = np.flatnonzero(~np.all(np.isfinite(data), axis=1) | (data[:, 1] <= 0.0))
+    if bad.size:
+        raise PowerLogError(f"{path}:{line[bad[0]]}: needs a step and a period T > 0 [s]")
+    back = np.flatnonzero(np.diff(data[:, 0]) < 0.0)
+    if back.size:
+        raise PowerLogError(f"{path}:{line[back[0] + 1]}: step decreases")
+    return data[:, 0] * float(step), data[:, 1]

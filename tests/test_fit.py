@@ -1,5 +1,6 @@
 """Tests of the power-log reader, the model fit and ``eaplan-drake fit``."""
 
+import dataclasses as dc
 import math
 from importlib import resources
 from pathlib import Path
@@ -13,18 +14,29 @@ from eaplan_drake.estimator import KalmanPredict, KalmanUpdate
 from eaplan_drake.fit import (
     BaselinePrediction,
     FilterPowerSeries,
+    FitLevelNoise,
     FitNoise,
+    FitPowerLog,
     FitPowerModel,
     HorizonSteps,
     NoiseParameters,
+    PeriodInForce,
+    PeriodSeries,
     PowerModelFit,
+    PredictAhead,
     ScorePredictions,
     SteadyStateCovariance,
     SyntheticPower,
     UniformPowerSeries,
 )
 from eaplan_drake.params import LoadScenario
-from eaplan_drake.powerlog import REFERENCE_ENV, PowerLogError, ReadPowerLog, ReferenceDirectory
+from eaplan_drake.powerlog import (
+    REFERENCE_ENV,
+    PowerLogError,
+    ReadPeriodLog,
+    ReadPowerLog,
+    ReferenceDirectory,
+)
 
 DATA = resources.files("eaplan_drake") / "data"
 T = 46.0
@@ -217,3 +229,222 @@ def test_opterra_throttle_log_reads_and_has_the_track_period():
     found = EstimatePeriodWithConfidence(log.times, log.power)
     assert found.period == pytest.approx(49.5, rel=0.03)  # the track repeats every ≈ 49.5 s
     assert Path(ReferenceDirectory()).is_dir()
+
+
+def _phase_signal(dt, periods):
+    """Noise-free power of two harmonics on the phase θ_k = 2π Σ_{i<k} Δt/T_i (continuous
+    through a change of period)."""
+    theta = np.concatenate(([0.0], np.cumsum(2.0 * math.pi * dt / periods[:-1])))
+    return 30.0 + 3.0 * np.cos(theta) + 2.0 * np.sin(2.0 * theta), theta
+
+
+def test_time_varying_period_filter_is_exact_on_a_phase_continuous_signal():
+    """T changes 46 → 40 s mid-record: the filter re-discretised per T_k has zero innovations
+    and predicts T/4 ahead exactly (holding the period in force); one T does not."""
+    dt = 0.5
+    Ts = np.where(np.arange(800) < 400, 46.0, 40.0)
+    z, theta = _phase_signal(dt, Ts)
+    noise = NoiseParameters(1e-6, 1e-12)
+    states, e, s = FilterPowerSeries(z, dt, 2, Ts, noise)
+    assert s.shape == z.shape and np.max(np.abs(e)) < 1e-6
+    H = 10
+    pred = PredictAhead(states, 2, Ts, dt, noise, H)
+    k = np.arange(400, 800 - H)  # the period in force (40 s) holds over the horizon
+    exact = 30.0 + 3.0 * np.cos(theta[k] + 2 * math.pi * H * dt / 40.0)
+    exact += 2.0 * np.sin(2.0 * (theta[k] + 2 * math.pi * H * dt / 40.0))
+    np.testing.assert_allclose(pred[k], exact, rtol=0.0, atol=1e-6)
+    _, e_fixed, _ = FilterPowerSeries(z, dt, 2, 46.0, noise)
+    assert np.max(np.abs(e_fixed[400:])) > 0.1
+    first, _, _ = FilterPowerSeries(z[:400], dt, 2, 46.0, noise)  # before the change: = one T
+    np.testing.assert_allclose(states[:400], first, rtol=0.0, atol=1e-9)
+
+
+def test_period_series_and_period_in_force():
+    assert PeriodSeries(46.0, 5) == (46.0, None)
+    assert PeriodSeries(np.full(5, 40.0), 5) == (40.0, None)
+    nominal, Ts = PeriodSeries(np.array([40.0, 40.0, 41.0]), 3)
+    assert nominal == 41.0 and Ts.size == 3
+    with pytest.raises(ValueError, match="period: needs one T per sample"):
+        PeriodSeries(np.ones(4), 5)
+    with pytest.raises(ValueError, match="period: every T_k"):
+        PeriodSeries(np.array([1.0, 0.0]), 2)
+    with pytest.raises(ValueError, match="period: must be finite"):
+        PeriodSeries(-1.0, 2)
+    T = PeriodInForce([0.0, 1.0, 2.5, 9.0], [1.0, 2.0, 5.0], [40.0, 45.0, 50.0])
+    np.testing.assert_array_equal(T, [40.0, 40.0, 45.0, 50.0])
+
+
+def test_seasonal_naive_with_the_period_in_force_never_looks_ahead():
+    z = np.arange(60.0)
+    P = np.where(np.arange(60) < 30, 10, 6)
+    H = 8  # longer than the period in force from k = 30 on: two periods back
+    pred = BaselinePrediction("seasonal naive", z, P, H)
+    k = np.arange(60)
+    assert pred[20] == z[20 + H - 10] and pred[40] == z[40 + H - 12]
+    assert np.all(pred[np.isfinite(pred)] <= k[np.isfinite(pred)])
+    ma = BaselinePrediction("moving average", z, P, 1)
+    assert ma[40] == pytest.approx(np.mean(z[35:41]))
+
+
+def test_read_authors_period_log(tmp_path):
+    f = tmp_path / "perioddata.csv"
+    f.write_text("99,1\n100,1.01\n3626,36.27\n")
+    t, T = ReadPeriodLog(f)
+    np.testing.assert_allclose(t, [0.99, 1.0, 36.26])
+    np.testing.assert_array_equal(T, [1.0, 1.01, 36.27])
+    f.write_text("99,1\n100,0\n")
+    with pytest.raises(PowerLogError, match=r"perioddata.csv:2: needs a step and a period"):
+        ReadPeriodLog(f)
+    f.write_text("99,1\n\n98,2\n")  # a blank line is skipped, the line number kept
+    with pytest.raises(PowerLogError, match=r"perioddata.csv:3: step decreases"):
+        ReadPeriodLog(f)
+
+
+def test_level_noise_recovers_the_local_level_ratio():
+    """Random walk level (q_0 = 0.01 W² per step) + white noise (R = 1 W²): the Kalman level is
+    the best predictor at every horizon, so the multi-step criterion picks λ = q_0/R = 0.01
+    (within its quarter-decade grid, ±1 step for the finite record) and R by likelihood."""
+    rng = np.random.default_rng(5)
+    n = 3000
+    level = 20.0 + np.cumsum(rng.normal(0.0, 0.1, n))
+    z = level + rng.normal(0.0, 1.0, n)
+    noise = FitLevelNoise(z, 1.0, 40.0)
+    ratio = noise.mean_process_noise / noise.measurement_noise
+    assert 10**-2.5 <= ratio <= 10**-1.5
+    assert noise.measurement_noise == pytest.approx(1.0, rel=0.15)
+    assert noise.process_noise == 0.0 and noise.aperiodic_time_constant == 0.0
+    base = NoiseParameters(1.0, 0.0, 5.0, 10.0, 0.1)  # q_0 re-chosen, the rest kept
+    again = FitLevelNoise(z, 1.0, 40.0, base)
+    assert dc.replace(again, mean_process_noise=5.0) == base
+    assert 10**-2.75 <= again.mean_process_noise <= 10**-1.25
+
+
+def test_fit_chooses_a_level_without_harmonics_for_a_random_walk():
+    """No periodic part: a random-walk level (0.05 W per step) + white noise (0.5 W). The held-out
+    choice keeps no harmonics, and the level fitted for the horizons is within 2 % of the
+    one-period moving average and within 10 % of last value one step ahead."""
+    rng = np.random.default_rng(11)
+    n = 1600
+    z = 40.0 + np.cumsum(rng.normal(0.0, 0.05, n)) + rng.normal(0.0, 0.5, n)
+    fit = FitPowerModel(z[: n // 2], 1.0, 40.0, orders=(0, 1), max_evaluations=60)
+    assert fit.order == 0 and {c[0] for c in fit.candidates} == {0, 1}
+    scores = ScorePredictions(z, 1.0, 40.0, fit)
+    for h in ("T/4", "T/2", "T"):
+        assert scores["model"][h][0] <= 1.02 * scores["moving average"][h][0], (h, scores)
+    assert scores["model"]["1 step"][0] <= 1.1 * scores["last value"]["1 step"][0]
+
+
+def test_fit_power_log_with_a_period_log_uses_the_period_in_force():
+    """The period changes 46 → 40 s at 3/4 of the record: with the period log the model and
+    seasonal naive both predict T/4 ahead better than with one T (40 s, the last)."""
+    dt = 0.5
+    t = dt * np.arange(1200)
+    Ts = np.where(t < 450.0, 46.0, 40.0)
+    z, _ = _phase_signal(dt, Ts)
+    z = z + np.random.default_rng(3).normal(0.0, 0.05, z.size)
+    log = ([0.0, 450.0], [46.0, 40.0])
+    varying = FitPowerLog(t, z, orders=(2,), period_log=log)
+    fixed = FitPowerLog(t, z, 40.0, orders=(2,))
+    assert varying.periods is not None and varying.periods[0] == 46.0
+    assert "period log" in varying.period_source
+    for name in ("model", "seasonal naive"):
+        assert varying.scores[name]["T/4"][0] < 0.5 * fixed.scores[name]["T/4"][0], name
+    assert varying.scores["model"]["T/4"][0] < 0.5 * varying.scores["seasonal naive"]["T/4"][0]
+    with pytest.raises(ValueError, match="period: give either"):
+        FitPowerLog(t, z, 40.0, period_log=log)
+
+
+def _WriteLog(path, t, z):
+    path.write_text(
+        "time_s,power_w\n" + "".join(f"{a:.2f},{b:.5f}\n" for a, b in zip(t, z, strict=True))
+    )
+
+
+def test_cli_fit_with_a_period_log_names_the_model(tmp_path, capsys):
+    """--period-log reads the authors' (step, T) rows (0.01 s steps) as the period in force; the
+    printout and the fragment name the chosen model and every candidate."""
+    dt = 0.5
+    t = dt * np.arange(1200)
+    z, _ = _phase_signal(dt, np.where(t < 450.0, 46.0, 40.0))
+    z = z + np.random.default_rng(3).normal(0.0, 0.05, z.size)
+    log, periods, out = tmp_path / "flight.csv", tmp_path / "perioddata.csv", tmp_path / "o"
+    _WriteLog(log, t, z)
+    periods.write_text("0,46\n45000,40\n")
+    args = ["fit", str(log), "--period-log", str(periods), "--orders", "2", "--out", str(out)]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "period log (40.00–46.00 s in force)" in text
+    model = next(line for line in text.splitlines() if line.startswith("model "))
+    name = model.split()[1]
+    assert name in ("r=2+AR(1)", "r=2+AR(1)+walk", "level", "level+AR(1)"), model
+    candidates = text.split("candidates ")[1].split("\nnoise ")[0]
+    assert "r=2+AR(1)" in candidates and "level (q_0" in candidates
+    assert f"# model: {name}\n" in (out / "fit.yaml").read_text()
+
+
+def test_cli_fit_bad_period_log_is_one_line(tmp_path, capsys):
+    t, z = _synthetic(4, duration=400.0)
+    log, periods = tmp_path / "flight.csv", tmp_path / "perioddata.csv"
+    _WriteLog(log, t, z)
+    periods.write_text("0,46\n100,x\n")
+    out = str(tmp_path / "o")
+    assert main(["fit", str(log), "--period-log", str(periods), "--out", out]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"eaplan-drake fit: {periods}:2"), err
+    assert main(["fit", str(log), "--period-log", str(tmp_path / "none.csv"), "--out", out]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "none.csv: cannot read" in err[0], err
+    periods.write_text("0,46\n")
+    assert main(["fit", str(log), "--period", "46", "--period-log", str(periods)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["eaplan-drake fit: give either --period or --period-log, not both"]
+    assert not (tmp_path / "o").exists()
+
+
+def test_model_names():
+    from eaplan_drake.fit import ModelName
+
+    ar = NoiseParameters(1.0, 1e-6, 0.0, 12.0, 0.1)
+    assert ModelName(4, ar) == "r=4+AR(1)"
+    assert ModelName(0, dc.replace(ar, mean_process_noise=1e-3)) == "r=0+AR(1)+walk"
+    assert ModelName(0, NoiseParameters(1.0, 0.0, 1e-3), "local") == "level"
+    assert ModelName(0, ar, "r0") == "level+AR(1)"
+    assert ModelName(3, NoiseParameters(1.0, 1e-6)) == "r=3"
+    with pytest.raises(ValueError, match="horizon"):
+        ModelName(0, ar, "other")
+
+
+def _Run(args, threads):
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if threads is not None:
+        env["OPENBLAS_NUM_THREADS"] = str(threads)
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
+    return subprocess.run(
+        [sys.executable, *args], env=env, capture_output=True, text=True, timeout=300
+    )
+
+
+def test_cli_sets_one_blas_thread_before_numpy_unless_set():
+    code = "import os, eaplan_drake.cli as c; "
+    code += "print(c.BLAS_THREADS_SET_BEFORE_NUMPY, os.environ['OPENBLAS_NUM_THREADS'])"
+    assert _Run(["-c", code], None).stdout.split() == ["True", "1"]
+    assert _Run(["-c", code], 2).stdout.split() == ["True", "2"]
+
+
+@pytest.mark.slow
+def test_cli_fit_result_does_not_depend_on_blas_threads(tmp_path):
+    t, z = _synthetic(6, duration=400.0)
+    log = tmp_path / "flight.csv"
+    _WriteLog(log, t, z)
+    fragments = []
+    for threads in (1, 2):
+        out = tmp_path / f"o{threads}"
+        args = ["-m", "eaplan_drake.cli", "fit", str(log), "--period", "46", "--orders", "0,3"]
+        done = _Run([*args, "--out", str(out)], threads)
+        assert done.returncode == 0, done.stderr
+        fragments.append((out / "fit.yaml").read_text())
+    assert fragments[0] == fragments[1]
