@@ -63,6 +63,8 @@ MIN_LOG_PERIOD, MAX_LOG_PERIOD = 1e-3, 1000.0
 """Range of simulation.log_period [s]."""
 MAX_LOG_SAMPLES = 2e5
 """Largest time_limit / log_period [-]."""
+RATE_TOLERANCE = 1e-9
+"""Relative tolerance of "an integer multiple" between the periods of the rates [-]."""
 MIN_MAX_STEP, MAX_MAX_STEP = 1e-4, 1.0
 """Range of simulation.max_step [s]."""
 PLANT_MODELS = ("continuous", "exact_arc")
@@ -393,6 +395,13 @@ class SensorParams:
     """Probability that a sample is lost (output NaN) [-], in [0, 1)."""
     seed: int = 0
     """Seed of the noise and dropout generator, an integer >= 0."""
+    averaging: bool = False
+    """False (default): each sample is the power at the sample time plus noise of σ =
+    ``noise_std``. True: each sample is the mean power over its interval, n = 1 / (rate ·
+    simulation.max_step) base steps, plus noise of σ/√n (the mean of n base-rate readings), and
+    the estimator's R becomes ``estimator.measurement_noise`` / n (:mod:`eaplan_drake.sensor`);
+    needs rate <= 1 / max_step and estimator.rate <= rate. A sensor slower than the base rate
+    then loses no information."""
 
     def Validate(self, key: str = "sensor") -> None:
         _positive(self.rate, f"{key}.rate")
@@ -750,6 +759,7 @@ class Scenario:
             f"time_limit × max(sensor.rate, estimator.rate, 1 / max_step) must be <= "
             f"{MAX_STEPS:g} steps, got {sim.time_limit:g} s × {fastest:g} Hz",
         )
+        _CheckRates(self)
         _check(
             sim.time_limit / self.planner.period <= MAX_PLANNER_STEPS,
             "planner.period",
@@ -775,6 +785,44 @@ class Scenario:
             "c1_max must be <= 0 (r2 = sqrt(r² + c1) may not exceed r)",
         )
         return self
+
+
+def _CheckRates(scenario: Scenario) -> None:
+    """Every rate an integer multiple of one base, so that event times coincide: the periods
+    simulation.max_step, 1/sensor.rate and 1/estimator.rate [s] are each an integer multiple of
+    the smallest of them (relative tolerance :data:`RATE_TOLERANCE`). With sensor.averaging the
+    base is max_step (a sample averages whole base steps) and the estimator is no faster than
+    the sensor (each averaged sample is used once, with R/n)."""
+    h = scenario.simulation.max_step
+    periods = {
+        "simulation.max_step": (h, f"{h:g} s"),
+        "sensor.rate": (1.0 / scenario.sensor.rate, f"{scenario.sensor.rate:g} Hz"),
+        "estimator.rate": (1.0 / scenario.estimator.rate, f"{scenario.estimator.rate:g} Hz"),
+    }
+    base_key = min(periods, key=lambda k: periods[k][0])
+    base = periods[base_key][0]
+    for key, (period, shown) in periods.items():
+        ratio = period / base
+        _check(
+            abs(ratio - round(ratio)) <= RATE_TOLERANCE * ratio,
+            key,
+            f"its period must be an integer multiple of the base period {base:g} s "
+            f"({base_key}; every rate an integer multiple of one base, so that event times "
+            f"coincide), got {shown} (period {period:g} s = {ratio:g} base periods)",
+        )
+    if scenario.sensor.averaging:
+        _check(
+            scenario.sensor.rate <= (1.0 + RATE_TOLERANCE) / h,
+            "sensor.rate",
+            f"with sensor.averaging must be <= 1 / simulation.max_step = {1.0 / h:g} Hz (a sample "
+            f"averages whole base steps), got {scenario.sensor.rate:g}",
+        )
+        _check(
+            scenario.estimator.rate <= scenario.sensor.rate * (1.0 + RATE_TOLERANCE),
+            "estimator.rate",
+            f"with sensor.averaging must be <= sensor.rate = {scenario.sensor.rate:g} Hz (each "
+            f"averaged sample is used once, with R/n), got {scenario.estimator.rate:g}",
+        )
 
 
 def _CheckTree(obj, schema, key: str) -> None:
