@@ -13,6 +13,7 @@ A bad scenario is one line on stderr and exit status 2, never a traceback.
 """
 
 import argparse
+import dataclasses as dc
 import os
 import signal
 import sys
@@ -20,6 +21,7 @@ import threading
 from pathlib import Path
 
 from eaplan_drake.params import POLICIES, OverrideFromAssignment, PlannerParams, ScenarioError
+from eaplan_drake.rates import RATE_PRESETS
 from eaplan_drake.reference import PAPER_RESULTS, CompareTable
 
 __all__ = ["main"]
@@ -191,6 +193,8 @@ def _Sweep(args) -> int:
     from eaplan_drake.sweep import LoadStudy, RunStudy, StudyReport
 
     study, directory = LoadStudy(_StudyPath(args.study))
+    if args.rates:
+        study = dc.replace(study, rates=args.rates)
     if args.backend == "dask" and not args.scheduler:
         raise ScenarioError("--backend dask needs --scheduler ADDRESS (tcp://host:8786)")
     rows = RunStudy(
@@ -313,6 +317,13 @@ def main(argv=None) -> int:
     p.add_argument("--backend", choices=("loky", "dask"), default="loky")
     p.add_argument("--scheduler", default="", help="Dask scheduler address (backend dask)")
     p.add_argument("--save-logs", action="store_true", help="also save every flight's log")
+    p.add_argument(
+        "--rates",
+        choices=(*RATE_PRESETS, "scenario"),
+        default="",
+        help="rates of every flight (default: the study's, else fast = 20 Hz plant, sensor, "
+        "filter; paper = 100 Hz; scenario = the base scenario's own)",
+    )
     p.set_defaults(run=_Sweep)
     p = sub.add_parser("fit", help="fit the energy model to a power log; score its predictions")
     p.add_argument("log", help="CSV: PX4 battery_status, Paparazzi energy log, or t/power columns")
