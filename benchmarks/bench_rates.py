@@ -61,16 +61,19 @@ SETTINGS = [
     RateSetting(plant=100.0, sensor=10.0, averaging=True, estimator=10.0),
     RateSetting(plant=100.0, sensor=10.0, averaging=False, estimator=10.0),
     RateSetting(plant=50.0, sensor=50.0, averaging=False, estimator=50.0),
+    RateSetting(plant=50.0, sensor=50.0, averaging=True, estimator=50.0),
     RateSetting(plant=50.0, sensor=10.0, averaging=True, estimator=10.0),
     RateSetting(plant=20.0, sensor=20.0, averaging=False, estimator=20.0),
+    RateSetting(plant=20.0, sensor=20.0, averaging=True, estimator=20.0),
     RateSetting(plant=20.0, sensor=10.0, averaging=True, estimator=10.0),
-    RateSetting(plant=20.0, sensor=10.0, averaging=False, estimator=10.0),
     RateSetting(plant=20.0, sensor=5.0, averaging=True, estimator=5.0),
     RateSetting(plant=10.0, sensor=10.0, averaging=False, estimator=10.0),
+    RateSetting(plant=10.0, sensor=10.0, averaging=True, estimator=10.0),
 ]
 """Rate settings (:class:`~eaplan_drake.rates.RateSetting`), labelled P = plant, guidance,
-battery and sequencer tick [Hz], S = sensor and Kalman filter [Hz], avg = the averaging sensor,
-point = the point sampler (a sensor at the base rate needs neither)."""
+battery and sequencer tick [Hz], S = sensor and Kalman filter [Hz], avg = the averaging sensor
+(the mean of the 100 Hz readings of each interval, noise σ/√n), point = a point sampler below
+the paper's 100 Hz (noise σ per sample)."""
 
 NOISE_FLOOR = "paper, sensor seed 1"
 """An extra row: the paper's rates with another sensor seed, the difference that the noise draws

@@ -198,7 +198,7 @@ def AddEnergyLoop(
         EnergyEstimator(
             order=scenario.energy_model.order,
             initial_period=scenario.energy_model.initial_period,
-            estimator=EstimatorOfSensor(scenario.estimator, sensor.base_steps_per_sample),
+            estimator=EstimatorOfSensor(scenario.estimator, sensor.readings_per_sample),
             initial_q=_InitialCoefficients(scenario),
         ),
     )
@@ -360,15 +360,15 @@ def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
     )
 
 
-def EstimatorOfSensor(estimator: EstimatorParams, base_steps_per_sample: int) -> EstimatorParams:
-    """The estimator parameters behind a sensor that averages n = ``base_steps_per_sample`` base
+def EstimatorOfSensor(estimator: EstimatorParams, readings_per_sample: int) -> EstimatorParams:
+    """The estimator parameters behind a sensor that averages n = ``readings_per_sample``
     readings per sample: R = ``measurement_noise`` / n [W²]
     (:func:`~eaplan_drake.sensor.AveragedVariance`); ``estimator`` itself when n = 1."""
-    if base_steps_per_sample == 1:
+    if readings_per_sample == 1:
         return estimator
     return dc.replace(
         estimator,
-        measurement_noise=AveragedVariance(estimator.measurement_noise, base_steps_per_sample),
+        measurement_noise=AveragedVariance(estimator.measurement_noise, readings_per_sample),
     )
 
 

@@ -397,16 +397,21 @@ class SensorParams:
     """Seed of the noise and dropout generator, an integer >= 0."""
     averaging: bool = False
     """False (default): each sample is the power at the sample time plus noise of σ =
-    ``noise_std``. True: each sample is the mean power over its interval, n = 1 / (rate ·
-    simulation.max_step) base steps, plus noise of σ/√n (the mean of n base-rate readings), and
-    the estimator's R becomes ``estimator.measurement_noise`` / n (:mod:`eaplan_drake.sensor`);
-    needs rate <= 1 / max_step and estimator.rate <= rate. A sensor slower than the base rate
-    then loses no information."""
+    ``noise_std``. True: each sample is the mean of the n = native_rate / rate readings of its
+    interval, the mean power over it plus noise of σ/√n, and the estimator's R becomes
+    ``estimator.measurement_noise`` / n (:mod:`eaplan_drake.sensor`): a sensor reporting below
+    its native rate, or a simulation on a coarser ``simulation.max_step``, then loses no
+    information. Needs rate <= 1 / max_step and estimator.rate <= rate."""
+    native_rate: float = 100.0
+    """f_r, rate of the readings whose noise is σ = ``noise_std`` [Hz] (the paper's 100 Hz);
+    used with ``averaging`` (an integer multiple of ``rate``)."""
 
     def Validate(self, key: str = "sensor") -> None:
         _positive(self.rate, f"{key}.rate")
         _at_most(self.rate, f"{key}.rate", MAX_RATE, "Hz", "bounds the events per second")
         _nonnegative(self.noise_std, f"{key}.noise_std")
+        _positive(self.native_rate, f"{key}.native_rate")
+        _at_most(self.native_rate, f"{key}.native_rate", MAX_RATE, "Hz", "bounds the readings")
         _in_range(self.dropout_probability, f"{key}.dropout_probability", 0.0, 1.0 - 1e-9)
         _check(
             _is_int(self.seed) and self.seed >= 0,
@@ -791,8 +796,9 @@ def _CheckRates(scenario: Scenario) -> None:
     """Every rate an integer multiple of one base, so that event times coincide: the periods
     simulation.max_step, 1/sensor.rate and 1/estimator.rate [s] are each an integer multiple of
     the smallest of them (relative tolerance :data:`RATE_TOLERANCE`). With sensor.averaging the
-    base is max_step (a sample averages whole base steps) and the estimator is no faster than
-    the sensor (each averaged sample is used once, with R/n)."""
+    base is max_step (a sample averages whole base steps), native_rate is an integer multiple of
+    the sensor's rate and the estimator is no faster than the sensor (each averaged sample is
+    used once, with R/n)."""
     h = scenario.simulation.max_step
     periods = {
         "simulation.max_step": (h, f"{h:g} s"),
@@ -811,6 +817,13 @@ def _CheckRates(scenario: Scenario) -> None:
             f"coincide), got {shown} (period {period:g} s = {ratio:g} base periods)",
         )
     if scenario.sensor.averaging:
+        readings = scenario.sensor.native_rate / scenario.sensor.rate
+        _check(
+            round(readings) >= 1 and abs(readings - round(readings)) <= RATE_TOLERANCE * readings,
+            "sensor.native_rate",
+            f"with sensor.averaging must be an integer multiple of sensor.rate = "
+            f"{scenario.sensor.rate:g} Hz, got {scenario.sensor.native_rate:g}",
+        )
         _check(
             scenario.sensor.rate <= (1.0 + RATE_TOLERANCE) / h,
             "sensor.rate",

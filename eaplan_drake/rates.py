@@ -49,13 +49,14 @@ class RateSetting:
     """``estimator.rate`` (the Kalman filter)."""
 
     def Label(self) -> str:
-        """E.g. ``P20 S10 avg``: plant, sensor (and filter, when different), averaging."""
+        """E.g. ``P20 S10 avg``: plant, sensor (and filter, when different), ``avg`` for the
+        averaging sensor, ``point`` for a point sampler below the paper's 100 Hz."""
         text = f"P{self.plant:g} S{self.sensor:g}"
         if self.estimator != self.sensor:
             text += f" F{self.estimator:g}"
-        if self.averaging and self.sensor != self.plant:
+        if self.averaging:
             text += " avg"
-        elif self.sensor != self.plant:
+        elif self.sensor != 100.0:
             text += " point"
         return text
 

@@ -9,20 +9,23 @@ and is lost (NaN) when u_k < p_drop, u_k ~ U[0, 1). The draws (z_k, u_k) are a p
 ``np.random.default_rng([seed, j])``. The same seed therefore gives the same samples in every run,
 whatever the order of evaluation, and no random-generator state lives in the Drake context.
 
-Averaging (``SensorParams.averaging``). A sensor sampling below the base rate 1/h (h =
-``simulation.max_step`` [s], the period of the plant, battery and sequencer, at which the true
-power is piecewise constant) would, as a point sampler, throw away n − 1 of every n values. The
-averaging sensor reports instead the mean power over its whole interval, with the noise of the
-mean of n independent base-rate readings:
+Averaging (``SensorParams.averaging``). The sensor's noise σ is that of one *reading* at its
+native rate f_r (``SensorParams.native_rate``, 100 Hz by default: the paper's sensor). A sensor
+reporting at f < f_r as a point sampler would throw away n − 1 of every n = f_r / f readings,
+and a simulation run on a coarser base step would model a worse sensor than the paper's. The
+averaging sensor reports instead the mean of its n readings over the interval:
 
-    Υ_k = (1/n) Σ_{j = kn}^{kn + n − 1} y(t_j) + (σ/√n) z_k,   n = 1 / (f h) base steps per sample,
+    Υ_k = (1/m) Σ_{j = km}^{km + m − 1} y(t_j) + (σ/√n) z_k,   n = f_r / f,  m = 1 / (f h),
 
-the mean power the battery draws over [kn·h, (k + 1)n·h), taken at the last base tick of the
-interval, t = ((k + 1)n − 1)·h, so a filter updating at (k + 1)n·h reads the interval just
-flown. (σ/√n) z_k has exactly the distribution of the mean of n independent N(0, σ²) readings;
-it is drawn as one z_k per sample (the same draws as the point sampler), so it is a pure function
-of (seed, k). The filter's R follows: it uses R/n (:func:`AveragedVariance`). With n = 1 the
-averaging sensor gives the point sampler's samples bit for bit.
+with m the base steps h [s] (``simulation.max_step``, the period of the plant, battery and
+sequencer) per sample: the true power y is constant over a base step, so the mean of the n
+readings' y is the mean over the m base ticks, the mean power the battery draws over
+[km·h, (k + 1)m·h). It is taken at the last base tick of the interval, t = ((k + 1)m − 1)·h, so a
+filter updating at (k + 1)m·h reads the interval just flown. (σ/√n) z_k has exactly the
+distribution of the mean of n independent N(0, σ²) reading noises; it is drawn as one z_k per
+sample (the same draws as the point sampler), a pure function of (seed, k). The filter's R
+follows: it uses R/n (:func:`AveragedVariance`). With n = m = 1 the averaging sensor gives the
+point sampler's samples bit for bit.
 """
 
 import copy
@@ -39,6 +42,7 @@ __all__ = [
     "AveragedSample",
     "AveragedVariance",
     "BaseStepsPerSample",
+    "ReadingsPerSample",
     "NoiseBlock",
     "NoiseSamples",
     "PowerSample",
@@ -104,6 +108,19 @@ def BaseStepsPerSample(rate: float, time_step: float) -> int:
     return n
 
 
+def ReadingsPerSample(native_rate: float, rate: float) -> int:
+    """n = f_r / f: native readings at f_r [Hz] averaged into one sample at f [Hz], an integer
+    >= 1. Raises ValueError (naming ``sensor.native_rate``) otherwise."""
+    ratio = float(native_rate) / float(rate)
+    n = round(ratio)
+    if n < 1 or abs(ratio - n) > RATE_TOLERANCE * max(ratio, 1.0):
+        raise ValueError(
+            f"sensor.native_rate: with averaging, must be an integer multiple of sensor.rate = "
+            f"{rate:g} Hz, got {native_rate:g} Hz"
+        )
+    return n
+
+
 def AveragedNoiseStd(noise_std: float, n: int) -> float:
     """σ/√n [W]: standard deviation of the mean of n independent readings of noise σ [W]."""
     return noise_std / math.sqrt(n)
@@ -115,15 +132,18 @@ def AveragedVariance(variance: float, n: int) -> float:
     return variance / n
 
 
-def AveragedSample(power_sum: float, count: int, z: float, noise_std: float, dropped: bool):
-    """The averaging measurement equation: Υ = Σy/n + (σ/√n) z [W], or NaN when dropped.
+def AveragedSample(
+    power_sum: float, count: int, z: float, noise_std: float, readings: float, dropped: bool
+):
+    """The averaging measurement equation: Υ = Σy/m + (σ/√n) z [W], or NaN when dropped.
 
-    ``power_sum`` is Σ y(t_j) [W] over the ``count`` = n base ticks of the interval, ``z`` the
-    standard normal draw z_k, ``noise_std`` σ [W] of one base-rate reading, ``dropped`` the flag
-    u_k < p_drop (:func:`NoiseBlock` draws of the same index k)."""
+    ``power_sum`` is Σ y(t_j) [W] over the ``count`` = m base ticks of the interval, ``z`` the
+    standard normal draw z_k, ``noise_std`` σ [W] of one native reading, ``readings`` the n
+    readings averaged, ``dropped`` the flag u_k < p_drop (:func:`NoiseBlock` draws of the same
+    index k)."""
     if dropped:
         return math.nan
-    return power_sum / count + z * AveragedNoiseStd(noise_std, count)
+    return power_sum / count + z * AveragedNoiseStd(noise_std, readings)
 
 
 class PowerSensor(LeafSystem):
@@ -143,10 +163,10 @@ class PowerSensor(LeafSystem):
     ``params``.
 
     With ``params.averaging`` the sensor runs at the base step ``time_step`` h [s] (required
-    then; 1/rate must be n·h, n an integer): every base tick t_j adds y(t_j) to an accumulator
-    (a second discrete-state group: Σy [W], count), and the last tick of each interval of n
-    emits :func:`AveragedSample` (module docstring) and clears it. Without averaging
-    ``time_step`` is not used.
+    then; 1/rate must be m·h, m an integer, and native_rate/rate an integer n): every base tick
+    t_j adds y(t_j) to an accumulator (a second discrete-state group: Σy [W], count), and the
+    last tick of each interval of m emits :func:`AveragedSample` with noise σ/√n (module
+    docstring) and clears it. Without averaging ``time_step`` is not used.
 
     .. pydrake_system::
 
@@ -179,11 +199,13 @@ class PowerSensor(LeafSystem):
                 raise ValueError("PowerSensor: sensor.averaging needs the base time_step [s]")
             self._time_step = float(time_step)
             self._n = BaseStepsPerSample(self._rate, self._time_step)
+            self._readings = ReadingsPerSample(params.native_rate, self._rate)
             self._sum_index = self.DeclareDiscreteState(np.zeros(2))  # Σy [W], count
             self.DeclarePeriodicDiscreteUpdateEvent(self._time_step, 0.0, self._Accumulate)
         else:
             self._time_step = None
             self._n = 1
+            self._readings = 1
             self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._Sample)
         self._measured_port = self.DeclareVectorOutputPort(
             "measured_power",
@@ -209,8 +231,13 @@ class PowerSensor(LeafSystem):
 
     @property
     def base_steps_per_sample(self) -> int:
-        """n: base steps averaged per sample (1 without averaging)."""
+        """m: base steps averaged per sample (1 without averaging)."""
         return self._n
+
+    @property
+    def readings_per_sample(self) -> int:
+        """n: native readings averaged per sample, its noise σ/√n (1 without averaging)."""
+        return self._readings
 
     def SampleIndex(self, time: float) -> int:
         """Index k of the sample taken at ``time`` [s] (k = round(time · rate))."""
@@ -246,8 +273,10 @@ class PowerSensor(LeafSystem):
         block, local = divmod(k, BLOCK_SIZE)
         if block != self._block:
             self._LoadBlock(block)
+        count = int(acc[1])
+        readings = self._readings if count == self._n else self._readings * count / self._n
         value = AveragedSample(
-            acc[0], int(acc[1]), self._z[local], self._params.noise_std, self._dropped[local]
+            acc[0], count, self._z[local], self._params.noise_std, readings, self._dropped[local]
         )
         discrete_state.get_mutable_value(self._state_index)[0] = value
         acc[0] = 0.0

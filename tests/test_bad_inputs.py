@@ -175,6 +175,13 @@ CASES = [
     ),
     (
         "rates",
+        "native rate below the averaging sensor's",
+        {},
+        "sensor: {rate: 100, averaging: true, native_rate: 50}\n",
+        "sensor.native_rate: with sensor.averaging must be an integer multiple of sensor.rate",
+    ),
+    (
+        "rates",
         "estimator faster than the averaging sensor",
         {},
         "sensor: {rate: 10, averaging: true}\n",

@@ -147,3 +147,4 @@ def test_rate_setting_labels():
     assert setting.Label() == "P20 S10 avg"
     assert dc.replace(setting, averaging=False).Label() == "P20 S10 point"
     assert dc.replace(setting, estimator=5.0).Label() == "P20 S10 F5 avg"
+    assert dc.replace(setting, sensor=20.0, estimator=20.0).Label() == "P20 S20 avg"
