@@ -321,8 +321,8 @@ def main(argv=None) -> int:
         "--rates",
         choices=(*RATE_PRESETS, "scenario"),
         default="",
-        help="rates of every flight (default: the study's, else fast = 20 Hz plant, sensor, "
-        "filter; paper = 100 Hz; scenario = the base scenario's own)",
+        help="rates of every flight (default: the study's, else fast = 20 Hz plant, 10 Hz "
+        "averaging sensor and filter; paper = 100 Hz; scenario = the base scenario's own)",
     )
     p.set_defaults(run=_Sweep)
     p = sub.add_parser("fit", help="fit the energy model to a power log; score its predictions")

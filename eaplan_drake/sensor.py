@@ -34,7 +34,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from eaplan_drake.params import SensorParams
+from eaplan_drake.params import RATE_TOLERANCE, SensorParams
 
 __all__ = [
     "BLOCK_SIZE",
@@ -42,11 +42,11 @@ __all__ = [
     "AveragedSample",
     "AveragedVariance",
     "BaseStepsPerSample",
-    "ReadingsPerSample",
     "NoiseBlock",
     "NoiseSamples",
     "PowerSample",
     "PowerSensor",
+    "ReadingsPerSample",
 ]
 
 BLOCK_SIZE = 4096
@@ -89,12 +89,8 @@ def PowerSample(true_power: float, noise: float, dropped: bool) -> float:
     return math.nan if dropped else true_power + noise
 
 
-RATE_TOLERANCE = 1e-9
-"""Relative tolerance of "an integer multiple" for periods [-]."""
-
-
 def BaseStepsPerSample(rate: float, time_step: float) -> int:
-    """n = 1 / (f h): base steps h [s] per sample of a sensor at f [Hz], an integer >= 1.
+    """m = 1 / (f h): base steps h [s] per sample of a sensor at f [Hz], an integer >= 1.
 
     Raises ValueError (naming ``sensor.rate``) when 1/f is not an integer multiple of h
     (relative tolerance :data:`RATE_TOLERANCE`)."""
@@ -187,7 +183,7 @@ class PowerSensor(LeafSystem):
         self._period = 1.0 / self._rate
         # The current block of draws as Python lists (cheap scalar indexing at 100 Hz).
         self._block = -1
-        self._noise: list[float] = []
+        self._moise: list[float] = []
         self._dropped: list[bool] = []
         self._z: list[float] = []
 
@@ -198,13 +194,13 @@ class PowerSensor(LeafSystem):
             if time_step is None:
                 raise ValueError("PowerSensor: sensor.averaging needs the base time_step [s]")
             self._time_step = float(time_step)
-            self._n = BaseStepsPerSample(self._rate, self._time_step)
+            self._m = BaseStepsPerSample(self._rate, self._time_step)
             self._readings = ReadingsPerSample(params.native_rate, self._rate)
             self._sum_index = self.DeclareDiscreteState(np.zeros(2))  # Σy [W], count
             self.DeclarePeriodicDiscreteUpdateEvent(self._time_step, 0.0, self._Accumulate)
         else:
             self._time_step = None
-            self._n = 1
+            self._m = 1
             self._readings = 1
             self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._Sample)
         self._measured_port = self.DeclareVectorOutputPort(
@@ -232,7 +228,7 @@ class PowerSensor(LeafSystem):
     @property
     def base_steps_per_sample(self) -> int:
         """m: base steps averaged per sample (1 without averaging)."""
-        return self._n
+        return self._m
 
     @property
     def readings_per_sample(self) -> int:
@@ -247,7 +243,7 @@ class PowerSensor(LeafSystem):
 
     def _LoadBlock(self, block: int) -> None:
         noise, dropped = NoiseSamples(self._params, block * BLOCK_SIZE, BLOCK_SIZE)
-        self._noise = noise.tolist()
+        self._moise = noise.tolist()
         self._dropped = dropped.tolist()
         self._z = NoiseBlock(self._params.seed, block)[0].tolist()
         self._block = block
@@ -259,7 +255,7 @@ class PowerSensor(LeafSystem):
             self._LoadBlock(block)
         # true_power is a cached output: the battery reads the same value at this update.
         y = self._true_port.Eval(context)[0]
-        value = PowerSample(y, self._noise[local], self._dropped[local])
+        value = PowerSample(y, self._moise[local], self._dropped[local])
         discrete_state.get_mutable_vector().SetAtIndex(0, value)
 
     def _Accumulate(self, context, discrete_state) -> None:
@@ -267,14 +263,14 @@ class PowerSensor(LeafSystem):
         acc = discrete_state.get_mutable_value(self._sum_index)
         acc[0] += self._true_port.Eval(context)[0]
         acc[1] += 1.0
-        if j % self._n != self._n - 1:
+        if j % self._m != self._m - 1:
             return
-        k = j // self._n
+        k = j // self._m
         block, local = divmod(k, BLOCK_SIZE)
         if block != self._block:
             self._LoadBlock(block)
         count = int(acc[1])
-        readings = self._readings if count == self._n else self._readings * count / self._n
+        readings = self._readings if count == self._m else self._readings * count / self._m
         value = AveragedSample(
             acc[0], count, self._z[local], self._params.noise_std, readings, self._dropped[local]
         )
