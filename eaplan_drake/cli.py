@@ -321,7 +321,7 @@ def main(argv=None) -> int:
         "--rates",
         choices=(*RATE_PRESETS, "scenario"),
         default="",
-        help="rates of every flight (default: the study's, else fast = 20 Hz plant, 10 Hz "
+        help="rates of every flight (default: the study's, else fast = 20 Hz plant, 5 Hz "
         "averaging sensor and filter; paper = 100 Hz; scenario = the base scenario's own)",
     )
     p.set_defaults(run=_Sweep)
