@@ -6,7 +6,7 @@ subprocess, so peaks don't mix). Speeds are per CPU second of the flight's proce
 (``time.process_time``), so that a busy machine slows both sides alike.
 
     python3 benchmarks/bench_flights.py [--runs 3] [--baseline-tree DIR] [--set KEY=VALUE ...]
-                                        [FLIGHT ...]
+                                        [--rates fast] [FLIGHT ...]
 
 FLIGHT: ``plan_I``, ``plan_II``, ``plan_i``, ``plan_ii``, ``plan_I_full`` (plan I with a battery
 ten times larger and no reserve, so the whole c1 = 0 survey, ≈ 767 simulated seconds, is flown).
@@ -14,7 +14,8 @@ With ``--runs N`` every figure is the median of N runs (flights and reference lo
 ``--baseline-tree DIR`` also flies each flight with the package found in DIR (e.g. a checkout of
 an older commit, ``git worktree add /tmp/old <commit>``) and prints the speed-up of this tree over
 it, measured in the same run. ``--set`` overrides a scenario key of this tree's flights (as
-``simulate --set``), e.g. ``--set simulation.plant=continuous``.
+``simulate --set``), e.g. ``--set simulation.plant=continuous``; ``--rates fast`` flies them at
+the studies' rate preset (:mod:`eaplan_drake.rates`, README "Rates"; issue 14's target 2).
 
 Targets (issue 14): dynamic flights (plan_i, plan_ii) at least 3× the speed of commit 9f6bcff in
 the same run, planner ≤ 20 % of a dynamic flight, peak memory ≤ 150 MB per flight.
@@ -36,8 +37,15 @@ import json, resource, sys, time
 from eaplan_drake.params import OverrideFromAssignment
 from eaplan_drake.simulation import LoadNamedScenario, Simulate
 name = sys.argv[1]
-overrides = [OverrideFromAssignment(a) for a in sys.argv[2:]]
-scenario = LoadNamedScenario(name.removesuffix("_full"), overrides)
+rates = [a.removeprefix("rates=") for a in sys.argv[2:] if a.startswith("rates=")]
+overrides = [OverrideFromAssignment(a) for a in sys.argv[2:] if not a.startswith("rates=")]
+if rates:  # a rate preset (eaplan_drake.rates), applied before the --set overrides
+    from eaplan_drake.params import LayerScenario
+    from eaplan_drake.rates import WithRates
+    scenario = WithRates(LoadNamedScenario(name.removesuffix("_full")), rates[0])
+    scenario = LayerScenario(scenario, overrides)
+else:
+    scenario = LoadNamedScenario(name.removesuffix("_full"), overrides)
 if name.endswith("_full"):  # the whole survey: a battery that cannot run out
     scenario.battery.capacity *= 10.0
     scenario.battery.reserve_soc = 0.0
@@ -98,6 +106,9 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=1)
     parser.add_argument("--baseline-tree", default=None)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument(
+        "--rates", default="", help="fly this tree's flights at a rate preset (fast, paper)"
+    )
     args = parser.parse_args()
     unknown = [f for f in args.flights if f not in FLIGHTS]
     if unknown or args.runs < 1:
@@ -111,6 +122,8 @@ def main() -> None:
         for name in args.flights:
             for label, tree in trees.items():
                 extra = args.set if label == "this" else []
+                if label == "this" and args.rates:
+                    extra = [f"rates={args.rates}", *extra]
                 rows.setdefault((name, label), []).append(_Run(CHILD, [name, *extra], tree))
         print(f"run {run + 1}/{args.runs} done", file=sys.stderr)
     ref = statistics.median(reference)

@@ -2,17 +2,18 @@
 
     python3 benchmarks/bench_policies.py [--worlds 130] [--first-seed 0] [--hindsight 30]
         [--jobs 2] [--policies mpc,greedy,paper,greedy_authors] [--planner KEY=VALUE ...]
-        [--out benchmarks/results/policies.json]
+        [--rates fast|paper] [--out benchmarks/results/policies.json]
 
 Every world (:func:`eaplan_drake.worlds.DrawWorld`, n seeds from --first-seed, of the default
 distribution:
 wind 0–12 m/s from any direction, 0–3 SoC drops of 0–15 % at 0–500 s, sensor noise 0.1–3 W,
-dropouts 0–30 %) is flown with the static lowest plan (c1 = c̲1, c2 = c̲2) and with every policy
-(paper and greedy_authors with the paper's 80 s warm-up, the others with the default 40 s);
-the first ``--hindsight`` worlds that the static lowest plan completes are also flown with the
-hindsight reference (the best constant pair of a 5 × |c2| grid). Flights run in a process pool
-(one flight = one task; a flight's result depends on its scenario only, so the table does not
-depend on ``--jobs``). Prints one table:
+dropouts 0–30 %; at the rate preset ``--rates``, by default the studies' ``fast``, see
+:mod:`eaplan_drake.rates`) is flown with the static lowest plan (c1 = c̲1, c2 = c̲2) and with
+every policy (paper and greedy_authors with the paper's 80 s warm-up, the others with the
+default 40 s); the first ``--hindsight`` worlds that the static lowest plan completes are also
+flown with the hindsight reference (the best constant pair of a 5 × |c2| grid). Flights run in a
+process pool (one flight = one task; a flight's result depends on its scenario only, so the table
+does not depend on ``--jobs``). Prints one table:
 
 - completion: of all worlds, and of the worlds the static lowest plan completes ("feasible");
 - quality: the time-mean of ½c̃1 + ½c̃2, over completed flights, and the mission quality (the
@@ -277,6 +278,12 @@ def main(argv=None) -> int:
         metavar="KEY=VALUE",
         help="set a planner parameter of every policy (e.g. fault_reserve=0.1); repeatable",
     )
+    ap.add_argument(
+        "--rates",
+        default="",
+        help="rate preset of every flight (eaplan_drake.rates.RATE_PRESETS: fast, the studies' "
+        "default, or paper = 100 Hz, the rates of the README's table)",
+    )
     ap.add_argument("--out", default="benchmarks/results/policies.json")
     ap.add_argument(
         "--cache",
@@ -293,13 +300,18 @@ def main(argv=None) -> int:
     policies = [p for p in args.policies.split(",") if p]
 
     from eaplan_drake.params import POLICIES, Scenario
+    from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
     from eaplan_drake.worlds import DrawWorld, LowestPlan, WithPolicy
+
+    args.rates = args.rates or DEFAULT_STUDY_RATES
+    if args.rates not in RATE_PRESETS:
+        ap.error(f"--rates: must be one of {', '.join(RATE_PRESETS)}")
 
     for p in policies:
         if p not in POLICIES or p == "hindsight":
             ap.error(f"--policies: {p!r} is not one of {', '.join(POLICIES[:-1])}")
     t0 = time.perf_counter()
-    base = Scenario(name="bench")
+    base = WithRates(Scenario(name="bench"), args.rates)
     for item in args.planner:
         key, _, value = item.partition("=")
         if not hasattr(base.planner, key):

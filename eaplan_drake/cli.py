@@ -26,6 +26,7 @@ BLAS_THREADS_SET_BEFORE_NUMPY = "numpy" not in sys.modules
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import dataclasses as dc  # noqa: E402
 import signal  # noqa: E402
 import textwrap  # noqa: E402
 import threading  # noqa: E402
@@ -37,6 +38,7 @@ from eaplan_drake.params import (  # noqa: E402
     PlannerParams,
     ScenarioError,
 )
+from eaplan_drake.rates import RATE_PRESETS  # noqa: E402
 from eaplan_drake.reference import PAPER_RESULTS, CompareTable  # noqa: E402
 
 __all__ = ["main"]
@@ -208,6 +210,8 @@ def _Sweep(args) -> int:
     from eaplan_drake.sweep import LoadStudy, RunStudy, StudyReport
 
     study, directory = LoadStudy(_StudyPath(args.study))
+    if args.rates:
+        study = dc.replace(study, rates=args.rates)
     if args.backend == "dask" and not args.scheduler:
         raise ScenarioError("--backend dask needs --scheduler ADDRESS (tcp://host:8786)")
     rows = RunStudy(
@@ -340,6 +344,13 @@ def main(argv=None) -> int:
     p.add_argument("--backend", choices=("loky", "dask"), default="loky")
     p.add_argument("--scheduler", default="", help="Dask scheduler address (backend dask)")
     p.add_argument("--save-logs", action="store_true", help="also save every flight's log")
+    p.add_argument(
+        "--rates",
+        choices=(*RATE_PRESETS, "scenario"),
+        default="",
+        help="rates of every flight (default: the study's, else fast = 20 Hz plant, 5 Hz "
+        "averaging sensor and filter; paper = 100 Hz; scenario = the base scenario's own)",
+    )
     p.set_defaults(run=_Sweep)
     p = sub.add_parser("fit", help="fit the energy model to a power log; score its predictions")
     p.add_argument("log", help="CSV: PX4 battery_status, Paparazzi energy log, or t/power columns")

@@ -28,12 +28,12 @@ from eaplan_drake.battery import Battery
 from eaplan_drake.computation import ComputationLoad
 from eaplan_drake.estimator import EnergyEstimator
 from eaplan_drake.guidance import VectorFieldGuidance
-from eaplan_drake.params import Scenario
+from eaplan_drake.params import EstimatorParams, Scenario
 from eaplan_drake.planner import PlannerPolicy, PlannerScheduler
 from eaplan_drake.plant import FixedWingPlant, MakeFixedWingPlant, MaxHeadingRate
 from eaplan_drake.policies import MakePolicy
 from eaplan_drake.resolve import ResolvedScenario, ResolveScenario, StartParameters
-from eaplan_drake.sensor import PowerSensor
+from eaplan_drake.sensor import AveragedVariance, PowerSensor
 from eaplan_drake.sequencer import StageSequencer
 
 __all__ = [
@@ -43,6 +43,7 @@ __all__ = [
     "AddPlannerScheduler",
     "AddSignalLoggers",
     "EnergyLoop",
+    "EstimatorOfSensor",
     "GuidedAircraft",
     "MakeEaplanDiagram",
     "MakeScenarioPolicy",
@@ -175,6 +176,10 @@ def AddEnergyLoop(
                           ├─ measured_power ─► estimator ◄─ computation power
                           └─ true_power ─► battery
 
+    The sensor runs on the base step ``simulation.max_step``; behind an averaging sensor
+    (``sensor.averaging``) the estimator's R is ``measurement_noise`` / n
+    (:func:`EstimatorOfSensor`).
+
     ``motion_power`` [W] and ``period`` (T [s]) are output ports already in ``builder`` (the
     plant's and the sequencer's, :func:`AddGuidedAircraft`). The computation load's
     ``computation_parameters`` input is left for the caller (a planner), or fed the constant
@@ -182,14 +187,18 @@ def AddEnergyLoop(
     """
     computation = builder.AddNamedSystem("computation", ComputationLoad(table))
     sensor = builder.AddNamedSystem(
-        "sensor", PowerSensor(dc.replace(scenario.sensor, seed=scenario.SensorSeed()))
+        "sensor",
+        PowerSensor(
+            dc.replace(scenario.sensor, seed=scenario.SensorSeed()),
+            time_step=scenario.simulation.max_step,
+        ),
     )
     estimator = builder.AddNamedSystem(
         "estimator",
         EnergyEstimator(
             order=scenario.energy_model.order,
             initial_period=scenario.energy_model.initial_period,
-            estimator=scenario.estimator,
+            estimator=EstimatorOfSensor(scenario.estimator, sensor.readings_per_sample),
             initial_q=_InitialCoefficients(scenario),
         ),
     )
@@ -348,6 +357,18 @@ def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
         ),
         path_parameter_grid=scenario.planner.PathParameterGrid(),
         integer=scenario.computation.integer,
+    )
+
+
+def EstimatorOfSensor(estimator: EstimatorParams, readings_per_sample: int) -> EstimatorParams:
+    """The estimator parameters behind a sensor that averages n = ``readings_per_sample``
+    readings per sample: R = ``measurement_noise`` / n [W²]
+    (:func:`~eaplan_drake.sensor.AveragedVariance`); ``estimator`` itself when n = 1."""
+    if readings_per_sample == 1:
+        return estimator
+    return dc.replace(
+        estimator,
+        measurement_noise=AveragedVariance(estimator.measurement_noise, readings_per_sample),
     )
 
 

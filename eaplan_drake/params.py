@@ -63,6 +63,8 @@ MIN_LOG_PERIOD, MAX_LOG_PERIOD = 1e-3, 1000.0
 """Range of simulation.log_period [s]."""
 MAX_LOG_SAMPLES = 2e5
 """Largest time_limit / log_period [-]."""
+RATE_TOLERANCE = 1e-9
+"""Relative tolerance of "an integer multiple" between the periods of the rates [-]."""
 MIN_MAX_STEP, MAX_MAX_STEP = 1e-4, 1.0
 """Range of simulation.max_step [s]."""
 PLANT_MODELS = ("continuous", "exact_arc")
@@ -393,11 +395,23 @@ class SensorParams:
     """Probability that a sample is lost (output NaN) [-], in [0, 1)."""
     seed: int = 0
     """Seed of the noise and dropout generator, an integer >= 0."""
+    averaging: bool = False
+    """False (default): each sample is the power at the sample time plus noise of σ =
+    ``noise_std``. True: each sample is the mean of the n = native_rate / rate readings of its
+    interval, the mean power over it plus noise of σ/√n, and the estimator's R becomes
+    ``estimator.measurement_noise`` / n (:mod:`eaplan_drake.sensor`): a sensor reporting below
+    its native rate, or a simulation on a coarser ``simulation.max_step``, then loses no
+    information. Needs rate <= 1 / max_step and estimator.rate <= rate."""
+    native_rate: float = 100.0
+    """f_r, rate of the readings whose noise is σ = ``noise_std`` [Hz] (the paper's 100 Hz);
+    used with ``averaging`` (an integer multiple of ``rate``)."""
 
     def Validate(self, key: str = "sensor") -> None:
         _positive(self.rate, f"{key}.rate")
         _at_most(self.rate, f"{key}.rate", MAX_RATE, "Hz", "bounds the events per second")
         _nonnegative(self.noise_std, f"{key}.noise_std")
+        _positive(self.native_rate, f"{key}.native_rate")
+        _at_most(self.native_rate, f"{key}.native_rate", MAX_RATE, "Hz", "bounds the readings")
         _in_range(self.dropout_probability, f"{key}.dropout_probability", 0.0, 1.0 - 1e-9)
         _check(
             _is_int(self.seed) and self.seed >= 0,
@@ -750,6 +764,7 @@ class Scenario:
             f"time_limit × max(sensor.rate, estimator.rate, 1 / max_step) must be <= "
             f"{MAX_STEPS:g} steps, got {sim.time_limit:g} s × {fastest:g} Hz",
         )
+        _CheckRates(self)
         _check(
             sim.time_limit / self.planner.period <= MAX_PLANNER_STEPS,
             "planner.period",
@@ -775,6 +790,52 @@ class Scenario:
             "c1_max must be <= 0 (r2 = sqrt(r² + c1) may not exceed r)",
         )
         return self
+
+
+def _CheckRates(scenario: Scenario) -> None:
+    """Every rate an integer multiple of one base, so that event times coincide: the periods
+    simulation.max_step, 1/sensor.rate and 1/estimator.rate [s] are each an integer multiple of
+    the smallest of them (relative tolerance :data:`RATE_TOLERANCE`). With sensor.averaging the
+    base is max_step (a sample averages whole base steps), native_rate is an integer multiple of
+    the sensor's rate and the estimator is no faster than the sensor (each averaged sample is
+    used once, with R/n)."""
+    h = scenario.simulation.max_step
+    periods = {
+        "simulation.max_step": (h, f"{h:g} s"),
+        "sensor.rate": (1.0 / scenario.sensor.rate, f"{scenario.sensor.rate:g} Hz"),
+        "estimator.rate": (1.0 / scenario.estimator.rate, f"{scenario.estimator.rate:g} Hz"),
+    }
+    base_key = min(periods, key=lambda k: periods[k][0])
+    base = periods[base_key][0]
+    for key, (period, shown) in periods.items():
+        ratio = period / base
+        _check(
+            abs(ratio - round(ratio)) <= RATE_TOLERANCE * ratio,
+            key,
+            f"its period must be an integer multiple of the base period {base:g} s "
+            f"({base_key}; every rate an integer multiple of one base, so that event times "
+            f"coincide), got {shown} (period {period:g} s = {ratio:g} base periods)",
+        )
+    if scenario.sensor.averaging:
+        readings = scenario.sensor.native_rate / scenario.sensor.rate
+        _check(
+            round(readings) >= 1 and abs(readings - round(readings)) <= RATE_TOLERANCE * readings,
+            "sensor.native_rate",
+            f"with sensor.averaging must be an integer multiple of sensor.rate = "
+            f"{scenario.sensor.rate:g} Hz, got {scenario.sensor.native_rate:g}",
+        )
+        _check(
+            scenario.sensor.rate <= (1.0 + RATE_TOLERANCE) / h,
+            "sensor.rate",
+            f"with sensor.averaging must be <= 1 / simulation.max_step = {1.0 / h:g} Hz (a sample "
+            f"averages whole base steps), got {scenario.sensor.rate:g}",
+        )
+        _check(
+            scenario.estimator.rate <= scenario.sensor.rate * (1.0 + RATE_TOLERANCE),
+            "estimator.rate",
+            f"with sensor.averaging must be <= sensor.rate = {scenario.sensor.rate:g} Hz (each "
+            f"averaged sample is used once, with R/n), got {scenario.estimator.rate:g}",
+        )
 
 
 def _CheckTree(obj, schema, key: str) -> None:

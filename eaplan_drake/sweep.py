@@ -45,6 +45,7 @@ from eaplan_drake.params import (
     Scenario,
     ScenarioError,
 )
+from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
 
 __all__ = [
     "FaultDistribution",
@@ -58,6 +59,8 @@ __all__ = [
 ]
 
 ROWS_FILE = "rows.jsonl"
+KEEP_RATES = "scenario"
+"""``Study.rates`` value that keeps the base scenario's own rates."""
 LOWEST = "lowest"
 """Pseudo-policy of the static lowest-quality reference flight."""
 
@@ -101,6 +104,11 @@ class Study:
     """Planner policies flown on every world."""
     lowest_reference: bool = True
     """Also fly every world with the static lowest plan (c1 = c̲1, c2 = c̲2)."""
+    rates: str = DEFAULT_STUDY_RATES
+    """Rates of every flight: a preset of :data:`~eaplan_drake.rates.RATE_PRESETS` applied to the
+    base scenario before ``set`` (:func:`~eaplan_drake.rates.WithRates`): ``fast`` (default;
+    20 Hz plant, 5 Hz averaging sensor and filter, README "Rates"), ``paper`` (100 Hz, as
+    ``simulate``), or ``scenario`` (the base scenario's own rates)."""
 
 
 def LoadStudy(filename: str | Path) -> tuple[Study, Path]:
@@ -142,6 +150,11 @@ def LoadStudy(filename: str | Path) -> tuple[Study, Path]:
         raise ScenarioError(f"{path}: draws: must be an integer in [1, 1000000]")
     if not study.policies:
         raise ScenarioError(f"{path}: policies: needs at least one policy")
+    if study.rates not in (*RATE_PRESETS, KEEP_RATES):
+        raise ScenarioError(
+            f"{path}: rates: must be one of {', '.join((*RATE_PRESETS, KEEP_RATES))}, "
+            f"got {study.rates!r}"
+        )
     return study, path.parent
 
 
@@ -158,7 +171,10 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
     base_path = Path(directory) / study.base
     base_name = str(base_path) if base_path.suffix in (".yaml", ".yml") else study.base
     fixed = [OverrideFromAssignment(f"{k}={_Value(v)}") for k, v in study.set.items()]
-    base = LoadNamedScenario(base_name, fixed)
+    loaded = LoadNamedScenario(base_name)
+    if study.rates != KEEP_RATES:
+        loaded = WithRates(loaded, study.rates)
+    base = LayerScenario(loaded, fixed)
     grid_keys = list(study.grid)
     grid_points = list(itertools.product(*(study.grid[k] for k in grid_keys))) or [()]
     flights = []
@@ -166,7 +182,7 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
     for point in grid_points:
         pairs = list(zip(grid_keys, point, strict=True))
         layers = [OverrideFromAssignment(f"{k}={_Value(v)}") for k, v in pairs]
-        grid_base = LoadNamedScenario(base_name, fixed + layers) if layers else base
+        grid_base = LayerScenario(loaded, fixed + layers) if layers else base
         for draw in range(study.draws):
             rng = np.random.default_rng([int(study.seed), draw])
             varied = dict(pairs)

@@ -150,6 +150,43 @@ CASES = [
         "simulation.time_limit",
     ),
     ("bounds", "horizon", {}, "planner: {horizon: 1000}\n", "planner.horizon"),
+    # -- rates: every rate an integer multiple of one base (issue 14) ----------------------------
+    ("rates", "sensor off the base", {}, "sensor: {rate: 30}\n", "sensor.rate: its period must"),
+    (
+        "rates",
+        "estimator off the base",
+        {},
+        "simulation: {max_step: 0.05}\nsensor: {rate: 20}\nestimator: {rate: 15}\n",
+        "estimator.rate: its period must be an integer multiple of the base period 0.05 s",
+    ),
+    (
+        "rates",
+        "plant off the base",
+        {},
+        "simulation: {max_step: 0.015}\n",
+        "simulation.max_step: its period must",
+    ),
+    (
+        "rates",
+        "averaging above the base",
+        {},
+        "simulation: {max_step: 0.05}\nsensor: {averaging: true}\n",
+        "sensor.rate: with sensor.averaging must be <= 1 / simulation.max_step = 20 Hz",
+    ),
+    (
+        "rates",
+        "native rate below the averaging sensor's",
+        {},
+        "sensor: {rate: 100, averaging: true, native_rate: 50}\n",
+        "sensor.native_rate: with sensor.averaging must be an integer multiple of sensor.rate",
+    ),
+    (
+        "rates",
+        "estimator faster than the averaging sensor",
+        {},
+        "sensor: {rate: 10, averaging: true}\n",
+        "estimator.rate: with sensor.averaging must be <= sensor.rate = 10 Hz",
+    ),
     ("bounds", "planner period", {}, "planner: {period: 1e-4}\n", "planner.period"),
     (
         "bounds",
@@ -294,6 +331,23 @@ def test_cli_subprocess_bad_table_and_plan_are_one_line(tmp_path):
         assert run.returncode == 2, run.stderr
         assert len(run.stderr.strip().splitlines()) == 1, run.stderr
         assert case[4] in run.stderr
+
+
+@pytest.mark.parametrize(
+    "assignment, expected",
+    [
+        ("sensor.rate=30", "sensor.rate: its period must be an integer multiple"),
+        ("estimator.rate=7", "estimator.rate: its period must be an integer multiple"),
+    ],
+)
+def test_cli_bad_rate_combination_from_set_is_one_line(assignment, expected, tmp_path, capsys):
+    out = tmp_path / "out"
+    status = _Bounded(cli_main, ["simulate", "plan_i", "--set", assignment, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and expected in lines[0], err
+    assert not out.exists()
 
 
 def test_relative_paths_resolve_against_the_scenario_folder(tmp_path, monkeypatch):

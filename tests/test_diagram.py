@@ -44,6 +44,16 @@ def test_short_closed_loop_run_stays_finite():
     assert diagram.GetSubsystemByName("planner").statistics()["solves"] >= 3
 
 
+def test_the_estimator_behind_an_averaging_sensor_uses_r_over_n():
+    rates = "simulation: {max_step: 0.01}\nestimator: {rate: 10, measurement_noise: 0.3}\n"
+    for averaging, n in ((False, 1), (True, 10)):
+        text = rates + f"sensor: {{rate: 10, averaging: {str(averaging).lower()}}}\n"
+        diagram = MakeEaplanDiagram(LoadScenario(data=text), log_period=0.0)
+        assert diagram.GetSubsystemByName("sensor").base_steps_per_sample == n
+        R = diagram.GetSubsystemByName("estimator").params.measurement_noise
+        assert R == pytest.approx(0.3 / n, rel=1e-15)
+
+
 def test_bad_scenario_is_rejected_before_building():
     s = Scenario()
     s.computation.initial_parameters = [10.0, 2.0]  # the PedNet table has one parameter

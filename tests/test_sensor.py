@@ -1,5 +1,6 @@
 """Tests of the PowerSensor system and its seeded noise / dropout draws."""
 
+import dataclasses as dc
 import math
 
 import numpy as np
@@ -9,7 +10,18 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, Sine
 
 from eaplan_drake.params import SensorParams
-from eaplan_drake.sensor import BLOCK_SIZE, NoiseSamples, PowerSample, PowerSensor
+from eaplan_drake.sensor import (
+    BLOCK_SIZE,
+    AveragedNoiseStd,
+    AveragedSample,
+    AveragedVariance,
+    BaseStepsPerSample,
+    NoiseBlock,
+    NoiseSamples,
+    PowerSample,
+    PowerSensor,
+    ReadingsPerSample,
+)
 
 AMPLITUDE, OMEGA, PHASE, OFFSET = 4.0, 0.7, 0.3, 6.0  # computation power 6 W + 4 sin(0.7 t + 0.3)
 MOTION = 25.0
@@ -19,10 +31,10 @@ def TruePower(t):
     return MOTION + OFFSET + AMPLITUDE * np.sin(OMEGA * np.asarray(t) + PHASE)
 
 
-def MakeDiagram(params: SensorParams):
+def MakeDiagram(params: SensorParams, time_step: float | None = None):
     """Sensor fed by a constant motion power and a sinusoidal computation power."""
     builder = DiagramBuilder()
-    sensor = builder.AddSystem(PowerSensor(params))
+    sensor = builder.AddSystem(PowerSensor(params, time_step=time_step))
     motion = builder.AddSystem(ConstantVectorSource([MOTION]))
     sine = builder.AddSystem(Sine(AMPLITUDE, OMEGA, PHASE, 1))
     offset = builder.AddSystem(ConstantVectorSource([OFFSET]))
@@ -194,3 +206,98 @@ def test_bad_params_name_the_field(field, value, message):
     setattr(params, field, value)
     with pytest.raises(ValueError, match=message):
         PowerSensor(params)
+
+
+# -- averaging sensor ----------------------------------------------------------------------------
+
+H = 0.01  # base step [s]
+
+
+def AveragedSamples(sensor, simulator, count: int, h: float = H) -> np.ndarray:
+    """measured_power after each of the first ``count`` averaged samples (sample k is emitted at
+    the last base tick of its interval, ((k + 1) n − 1) h; read half a base step later)."""
+    context = sensor.GetMyContextFromRoot(simulator.get_context())
+    n = sensor.base_steps_per_sample
+    out = np.empty(count)
+    for k in range(count):
+        simulator.AdvanceTo(((k + 1) * n - 0.5) * h)
+        out[k] = sensor.GetOutputPort("measured_power").Eval(context)[0]
+    return out
+
+
+def IntervalMeans(n: int, count: int, h: float = H) -> np.ndarray:
+    """(1/n) Σ y(t_j), j = kn … kn + n − 1, of the test's true power, k = 0 … count − 1."""
+    ticks = np.arange(count * n) * h
+    return TruePower(ticks).reshape(count, n).mean(axis=1)
+
+
+def test_averaging_functions():
+    assert BaseStepsPerSample(10.0, 0.01) == 10
+    assert BaseStepsPerSample(20.0, 0.05) == 1
+    assert BaseStepsPerSample(1.0 / 0.3, 0.1) == 3
+    for rate, h in ((30.0, 0.01), (200.0, 0.01), (15.0, 0.05)):
+        with pytest.raises(ValueError, match="sensor.rate"):
+            BaseStepsPerSample(rate, h)
+    assert AveragedNoiseStd(0.5, 4) == 0.25
+    assert AveragedVariance(0.25, 10) == pytest.approx(0.025, rel=1e-15)
+    assert ReadingsPerSample(100.0, 10.0) == 10 and ReadingsPerSample(100.0, 20.0) == 5
+    for native, rate in ((100.0, 30.0), (10.0, 20.0)):
+        with pytest.raises(ValueError, match="sensor.native_rate"):
+            ReadingsPerSample(native, rate)
+    expected = 30.0 + 2.0 * 0.5 / 5**0.5  # mean of 10 base ticks, noise of 5 readings
+    assert AveragedSample(300.0, 10, 2.0, 0.5, 5, False) == pytest.approx(expected)
+    assert math.isnan(AveragedSample(300.0, 10, 2.0, 0.5, 5, True))
+
+
+def test_averaging_needs_the_base_step_and_a_whole_number_of_them():
+    with pytest.raises(ValueError, match="time_step"):
+        PowerSensor(SensorParams(rate=10.0, averaging=True))
+    with pytest.raises(ValueError, match="sensor.rate"):
+        PowerSensor(SensorParams(rate=30.0, averaging=True), time_step=H)
+
+
+def test_averaging_over_one_base_step_is_the_point_sampler_bit_for_bit():
+    params = SensorParams(noise_std=0.5, dropout_probability=0.2, seed=4)
+    point = Samples(*MakeDiagram(params), 500)
+    averaged = dc.replace(params, averaging=True)
+    sensor, simulator = MakeDiagram(averaged, time_step=H)
+    assert sensor.base_steps_per_sample == 1
+    np.testing.assert_array_equal(Samples(sensor, simulator, 500), point)
+
+
+def test_averaged_samples_are_the_interval_mean_plus_the_seeded_draws():
+    params = SensorParams(rate=10.0, noise_std=0.5, dropout_probability=0.1, seed=9, averaging=True)
+    sensor, simulator = MakeDiagram(params, time_step=H)
+    n = sensor.base_steps_per_sample
+    assert n == 10 and sensor.readings_per_sample == 10
+    count = 200
+    z, u = NoiseBlock(params.seed, 0)
+    expected = [
+        AveragedSample(m * n, n, float(z[k]), 0.5, 10, bool(u[k] < 0.1))
+        for k, m in enumerate(IntervalMeans(n, count))
+    ]
+    np.testing.assert_allclose(
+        AveragedSamples(sensor, simulator, count), expected, rtol=0, atol=1e-12
+    )
+
+
+@pytest.mark.parametrize(
+    "rate, h, readings",
+    [(10.0, H, 10), (20.0, 0.05, 5)],
+    ids=["10 base steps", "one coarse base step"],
+)
+def test_averaged_noise_has_the_stated_mean_and_variance(rate, h, readings):
+    """Υ_k − mean power over the interval ~ N(0, σ²/n), n = native_rate / rate readings (also
+    when the interval is one coarse base step): over N = 3000 samples, σ = 0.5 W, fixed seed;
+    5-sigma tolerances on the mean (5 √(σ²/(nN))) and on the variance (5 (σ²/n) √(2/N))."""
+    sigma, count = 0.5, 3000
+    params = SensorParams(rate=rate, noise_std=sigma, seed=21, averaging=True, native_rate=100.0)
+    sensor, simulator = MakeDiagram(params, time_step=h)
+    assert sensor.readings_per_sample == readings
+    m = sensor.base_steps_per_sample
+    residual = AveragedSamples(sensor, simulator, count, h) - IntervalMeans(m, count, h)
+    variance = sigma**2 / readings
+    assert abs(residual.mean()) < 5 * math.sqrt(variance / count)
+    assert abs(residual.var() - variance) < 5 * variance * math.sqrt(2.0 / count)
+    # Well below the point sampler's σ² = 0.25 W², far outside the tolerance.
+    assert residual.var() < 0.5 * sigma**2
