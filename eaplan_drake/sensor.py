@@ -183,7 +183,7 @@ class PowerSensor(LeafSystem):
         self._period = 1.0 / self._rate
         # The current block of draws as Python lists (cheap scalar indexing at 100 Hz).
         self._block = -1
-        self._moise: list[float] = []
+        self._noise: list[float] = []
         self._dropped: list[bool] = []
         self._z: list[float] = []
 
@@ -203,12 +203,8 @@ class PowerSensor(LeafSystem):
             self._m = 1
             self._readings = 1
             self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._Sample)
-        self._measured_port = self.DeclareVectorOutputPort(
-            "measured_power",
-            1,
-            self._CalcMeasured,
-            prerequisites_of_calc={self.discrete_state_ticket(self._state_index)},
-        )
+        # The held sample is a state group: a state output port, no Python call per read.
+        self._measured_port = self.DeclareStateOutputPort("measured_power", self._state_index)
         self._true_port = self.DeclareVectorOutputPort(
             "true_power",
             1,
@@ -243,9 +239,10 @@ class PowerSensor(LeafSystem):
 
     def _LoadBlock(self, block: int) -> None:
         noise, dropped = NoiseSamples(self._params, block * BLOCK_SIZE, BLOCK_SIZE)
-        self._moise = noise.tolist()
+        self._noise = noise.tolist()
         self._dropped = dropped.tolist()
-        self._z = NoiseBlock(self._params.seed, block)[0].tolist()
+        if self._params.averaging:
+            self._z = NoiseBlock(self._params.seed, block)[0].tolist()
         self._block = block
 
     def _Sample(self, context, discrete_state) -> None:
@@ -255,7 +252,7 @@ class PowerSensor(LeafSystem):
             self._LoadBlock(block)
         # true_power is a cached output: the battery reads the same value at this update.
         y = self._true_port.Eval(context)[0]
-        value = PowerSample(y, self._moise[local], self._dropped[local])
+        value = PowerSample(y, self._noise[local], self._dropped[local])
         discrete_state.get_mutable_vector().SetAtIndex(0, value)
 
     def _Accumulate(self, context, discrete_state) -> None:
@@ -277,9 +274,6 @@ class PowerSensor(LeafSystem):
         discrete_state.get_mutable_value(self._state_index)[0] = value
         acc[0] = 0.0
         acc[1] = 0.0
-
-    def _CalcMeasured(self, context, output) -> None:
-        output.SetAtIndex(0, context.get_discrete_state(self._state_index).GetAtIndex(0))
 
     def _CalcTrue(self, context, output) -> None:
         output.SetAtIndex(
