@@ -95,25 +95,29 @@ def BaseStepsPerSample(rate: float, time_step: float) -> int:
     Raises ValueError (naming ``sensor.rate``) when 1/f is not an integer multiple of h
     (relative tolerance :data:`RATE_TOLERANCE`)."""
     ratio = 1.0 / (float(rate) * float(time_step))
-    n = round(ratio)
-    if n < 1 or abs(ratio - n) > RATE_TOLERANCE * max(ratio, 1.0):
-        raise ValueError(
-            f"sensor.rate: with averaging, 1/rate must be an integer multiple of the base step "
-            f"{time_step:g} s, got {rate:g} Hz (1/rate = {ratio:g} base steps)"
-        )
-    return n
+    return _IntegerRatio(
+        ratio,
+        f"sensor.rate: with averaging, 1/rate must be an integer multiple of the base step "
+        f"{time_step:g} s, got {rate:g} Hz (1/rate = {ratio:g} base steps)",
+    )
 
 
 def ReadingsPerSample(native_rate: float, rate: float) -> int:
     """n = f_r / f: native readings at f_r [Hz] averaged into one sample at f [Hz], an integer
     >= 1. Raises ValueError (naming ``sensor.native_rate``) otherwise."""
-    ratio = float(native_rate) / float(rate)
+    return _IntegerRatio(
+        float(native_rate) / float(rate),
+        f"sensor.native_rate: with averaging, must be an integer multiple of sensor.rate = "
+        f"{rate:g} Hz, got {native_rate:g} Hz",
+    )
+
+
+def _IntegerRatio(ratio: float, error: str) -> int:
+    """round(ratio) when it is an integer >= 1 within :data:`RATE_TOLERANCE`; else ValueError
+    with the one-line ``error``."""
     n = round(ratio)
     if n < 1 or abs(ratio - n) > RATE_TOLERANCE * max(ratio, 1.0):
-        raise ValueError(
-            f"sensor.native_rate: with averaging, must be an integer multiple of sensor.rate = "
-            f"{rate:g} Hz, got {native_rate:g} Hz"
-        )
+        raise ValueError(error)
     return n
 
 
