@@ -83,6 +83,12 @@ def _Simulate(args) -> int:
         scenario.planner.policy = args.policy
         scenario.name = f"{scenario.name}_{args.policy}"
         scenario.Validate()
+    if args.rates:  # after --set: the preset's rate keys win (eaplan_drake.rates.WithRates)
+        from eaplan_drake.rates import WithRates
+
+        scenario = WithRates(scenario, args.rates)
+        if args.rates != "paper":
+            scenario.name = f"{scenario.name}_{args.rates}"
     ResolveScenario(scenario)  # every scenario error before the flight
     out = Path(args.out) / scenario.name
     out.parent.mkdir(parents=True, exist_ok=True)  # and an unusable --out
@@ -326,6 +332,13 @@ def main(argv=None) -> int:
         "--replay",
         action="store_true",
         help="also write replay.html: a 3-D Meshcat replay that opens offline in a browser",
+    )
+    p.add_argument(
+        "--rates",
+        choices=tuple(RATE_PRESETS),
+        default="",
+        help="fly at a rate preset (fast = 20 Hz plant, 5 Hz averaging sensor and filter, the "
+        "studies' default; paper = 100 Hz); set after --set (name gets a suffix)",
     )
     p.set_defaults(run=_Simulate)
     p = sub.add_parser("diagram", help="write DOT and SVG of the closed loop and its systems")

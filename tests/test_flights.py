@@ -3,6 +3,8 @@
 Each flight is simulated once per test session (≈ 5–12 s wall each).
 """
 
+import json
+
 import numpy as np
 import pytest
 
@@ -91,6 +93,17 @@ def test_cli_simulate_writes_log_and_plots(tmp_path, capsys):
         "log.npz",
         "summary.json",
     ]
+
+
+def test_cli_simulate_at_the_fast_rates(tmp_path, capsys):
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text("name: short\nsimulation: {time_limit: 20.0}\n")
+    assert cli_main(["simulate", str(scenario), "--rates", "fast", "--out", str(tmp_path)]) == 0
+    assert "time_limit" in capsys.readouterr().out
+    log = np.load(tmp_path / "short_fast" / "log.npz")
+    summary = json.loads((tmp_path / "short_fast" / "summary.json").read_text())
+    assert summary["duration"] == pytest.approx(20.0)
+    assert np.all(np.isfinite(log["soc"]))
 
 
 def test_cli_bad_scenario_is_one_line(tmp_path, capsys):
