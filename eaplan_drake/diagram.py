@@ -200,6 +200,7 @@ def AddEnergyLoop(
             initial_period=scenario.energy_model.initial_period,
             estimator=EstimatorOfSensor(scenario.estimator, sensor.readings_per_sample),
             initial_q=_InitialCoefficients(scenario),
+            time_step=scenario.simulation.max_step,
         ),
     )
     battery = builder.AddNamedSystem(

@@ -35,7 +35,13 @@ import copy
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiscreteValues,
+    EventStatus,
+    LeafSystem,
+)
 
 from eaplan_drake.energy_model import (
     InputMemory,
@@ -45,7 +51,7 @@ from eaplan_drake.energy_model import (
     StateSize,
     TransitionMatrices,
 )
-from eaplan_drake.params import EstimatorParams
+from eaplan_drake.params import EstimatorParams, TicksPerPeriod
 
 __all__ = [
     "EnergyEstimator",
@@ -116,7 +122,10 @@ def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float):
 class EnergyEstimator(LeafSystem):
     """Kalman filter estimating the energy-model state q̂ [W] from the power sensor.
 
-    Runs at ``estimator.rate`` (h = 1/rate) with Drake's discrete convention: the state at t_k
+    Runs at ``estimator.rate`` (h = 1/rate; with ``time_step``, the loop's base tick, dividing h
+    n ≥ 2 times (:func:`~eaplan_drake.params.TicksPerPeriod`) the event is declared at the tick
+    and acts every n-th, so its times coincide bit for bit with the loop's) with Drake's discrete
+    convention: the state at t_k
     holds the a priori estimate q̂⁻(t_k), P⁻(t_k) (all samples before t_k), and the update at
     t_k applies one :func:`KalmanStep` with z_k = ``measured_power`` [W] (non-finite: prediction
     only), Δg_k = change of ``computation_power`` [W] since the previous step (known input through
@@ -151,6 +160,8 @@ class EnergyEstimator(LeafSystem):
         initial_period: float,
         estimator: EstimatorParams | None = None,
         initial_q=None,
+        *,
+        time_step: float | None = None,
     ):
         super().__init__()
         estimator = EstimatorParams() if estimator is None else estimator
@@ -201,7 +212,12 @@ class EnergyEstimator(LeafSystem):
         self._computation_power_port = self.DeclareVectorInputPort("computation_power", 1)
         self._period_port = self.DeclareVectorInputPort("period", 1)
         self.DeclareInitializationDiscreteUpdateEvent(self._Initialize)
-        self.DeclarePeriodicDiscreteUpdateEvent(self._h, 0.0, self._Update)
+        self._ticks = TicksPerPeriod(self._h, time_step)
+        if self._ticks > 1:  # on the base tick, every n-th (times coincide bit for bit)
+            self._tick = float(time_step)
+            self.DeclarePeriodicDiscreteUpdateEvent(self._tick, 0.0, self._Update)
+        else:
+            self.DeclarePeriodicDiscreteUpdateEvent(self._h, 0.0, self._Update)
         q_ticket = {self.discrete_state_ticket(self._q_index)}
         P_ticket = {self.discrete_state_ticket(self._P_index)}
         self._energy_coefficients_port = self.DeclareStateOutputPort(
@@ -251,7 +267,9 @@ class EnergyEstimator(LeafSystem):
         if math.isfinite(T) and T > 0.0:
             memory.period = T
 
-    def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
+    def _Update(self, context: Context, discrete_state: DiscreteValues):
+        if self._ticks > 1 and round(context.get_time() / self._tick) % self._ticks:
+            return EventStatus.DidNothing()
         # Drake fills discrete_state with the context's current values before this handler
         # (LeafSystem::DispatchDiscreteVariableUpdateHandler): read and write it in place.
         q = discrete_state.get_mutable_value(self._q_index)
@@ -267,6 +285,7 @@ class EnergyEstimator(LeafSystem):
         )
         q[:] = q_next
         P[:] = P_next.reshape(-1)
+        return None
 
     def _CalcPower(self, context: Context, output: BasicVector) -> None:
         q = context.get_discrete_state(self._q_index).get_value()

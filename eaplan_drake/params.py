@@ -65,6 +65,21 @@ MAX_LOG_SAMPLES = 2e5
 """Largest time_limit / log_period [-]."""
 RATE_TOLERANCE = 1e-9
 """Relative tolerance of "an integer multiple" between the periods of the rates [-]."""
+
+
+def TicksPerPeriod(period: float, time_step: float | None) -> int:
+    """n when ``period`` [s] is an integer multiple n >= 2 of the loop's base tick ``time_step``
+    [s] (relative tolerance :data:`RATE_TOLERANCE`), else 1. A system with n > 1 declares its
+    event at the tick and acts every n-th tick: Drake's event times k·period and (k·n)·time_step
+    differ in the last bit unless n is a power of two, and a sample taken one ulp late would see
+    the other systems after their update."""
+    if time_step is None or not period > 0.0 or not time_step > 0.0:
+        return 1
+    ratio = float(period) / float(time_step)
+    n = round(ratio)
+    return n if n >= 2 and abs(ratio - n) <= RATE_TOLERANCE * ratio else 1
+
+
 MIN_MAX_STEP, MAX_MAX_STEP = 1e-4, 1.0
 """Range of simulation.max_step [s]."""
 PLANT_MODELS = ("continuous", "exact_arc")

@@ -32,9 +32,9 @@ import copy
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
-from eaplan_drake.params import RATE_TOLERANCE, SensorParams
+from eaplan_drake.params import RATE_TOLERANCE, SensorParams, TicksPerPeriod
 
 __all__ = [
     "BLOCK_SIZE",
@@ -166,7 +166,9 @@ class PowerSensor(LeafSystem):
     then; 1/rate must be m·h, m an integer, and native_rate/rate an integer n): every base tick
     t_j adds y(t_j) to an accumulator (a second discrete-state group: Σy [W], count), and the
     last tick of each interval of m emits :func:`AveragedSample` with noise σ/√n (module
-    docstring) and clears it. Without averaging ``time_step`` is not used.
+    docstring) and clears it. Without averaging, when 1/rate is n ≥ 2 base steps ``time_step``
+    (:func:`~eaplan_drake.params.TicksPerPeriod`) the sample is taken on every n-th base tick,
+    so its times coincide bit for bit with the loop's; otherwise at k/rate.
 
     .. pydrake_system::
 
@@ -201,12 +203,17 @@ class PowerSensor(LeafSystem):
             self._m = BaseStepsPerSample(self._rate, self._time_step)
             self._readings = ReadingsPerSample(params.native_rate, self._rate)
             self._sum_index = self.DeclareDiscreteState(np.zeros(2))  # Σy [W], count
+            self._ticks = 1
             self.DeclarePeriodicDiscreteUpdateEvent(self._time_step, 0.0, self._Accumulate)
         else:
-            self._time_step = None
+            self._time_step = None if time_step is None else float(time_step)
             self._m = 1
             self._readings = 1
-            self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._Sample)
+            self._ticks = TicksPerPeriod(self._period, time_step)
+            if self._ticks > 1:  # on the base tick, every n-th (times coincide bit for bit)
+                self.DeclarePeriodicDiscreteUpdateEvent(self._time_step, 0.0, self._Sample)
+            else:
+                self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._Sample)
         # The held sample is a state group: a state output port, no Python call per read.
         self._measured_port = self.DeclareStateOutputPort("measured_power", self._state_index)
         self._true_port = self.DeclareVectorOutputPort(
@@ -249,7 +256,9 @@ class PowerSensor(LeafSystem):
             self._z = NoiseBlock(self._params.seed, block)[0].tolist()
         self._block = block
 
-    def _Sample(self, context, discrete_state) -> None:
+    def _Sample(self, context, discrete_state):
+        if self._ticks > 1 and round(context.get_time() / self._time_step) % self._ticks:
+            return EventStatus.DidNothing()
         k = int(round(context.get_time() * self._rate))
         block, local = divmod(k, BLOCK_SIZE)
         if block != self._block:

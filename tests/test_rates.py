@@ -5,8 +5,10 @@ import dataclasses as dc
 
 import numpy as np
 import pytest
+from pydrake.systems.analysis import Simulator
 
-from eaplan_drake.params import ScenarioError
+from eaplan_drake.diagram import MakeEaplanDiagram
+from eaplan_drake.params import ScenarioError, TicksPerPeriod
 from eaplan_drake.rates import (
     DEFAULT_STUDY_RATES,
     RATE_PRESETS,
@@ -148,3 +150,24 @@ def test_rate_setting_labels():
     assert dc.replace(setting, averaging=False).Label() == "P20 S10 point"
     assert dc.replace(setting, estimator=5.0).Label() == "P20 S10 F5 avg"
     assert dc.replace(setting, sensor=20.0, estimator=20.0).Label() == "P20 S20 avg"
+
+
+def test_ticks_per_period_is_the_integer_multiple_of_the_base_tick():
+    assert TicksPerPeriod(0.1, 0.01) == 10
+    assert TicksPerPeriod(0.2, 0.05) == 4
+    assert TicksPerPeriod(0.01, 0.01) == 1  # the tick itself: its own period
+    assert TicksPerPeriod(0.015, 0.01) == 1  # not a multiple: its own period
+    assert TicksPerPeriod(0.01, 0.02) == 1  # faster than the tick
+    assert TicksPerPeriod(0.1, None) == 1
+
+
+def test_a_10_hz_point_sensor_and_filter_on_the_100_hz_tick_add_no_steps():
+    # k·0.1 and (10k)·0.01 differ in the last bit at about one k in six; declared at their own
+    # period the sensor and the filter would add ulp-long steps (1018 steps in 10 s).
+    scenario = LoadNamedScenario(
+        "plan_I", ["{'sensor': {'rate': 10.0}, 'estimator': {'rate': 10.0}}"]
+    )
+    simulator = Simulator(MakeEaplanDiagram(scenario, log_period=0.0))
+    simulator.Initialize()
+    simulator.AdvanceTo(10.0)
+    assert simulator.get_num_steps_taken() == 1000
