@@ -337,7 +337,7 @@ def main(argv=None) -> int:
         "--rates",
         choices=tuple(RATE_PRESETS),
         default="",
-        help="fly at a rate preset (fast = 20 Hz plant, 5 Hz averaging sensor and filter, the "
+        help="fly at a rate preset (fast = 20 Hz plant, 10 Hz averaging sensor and filter, the "
         "studies' default; paper = 100 Hz); set after --set (name gets a suffix)",
     )
     p.set_defaults(run=_Simulate)
@@ -361,7 +361,7 @@ def main(argv=None) -> int:
         "--rates",
         choices=(*RATE_PRESETS, "scenario"),
         default="",
-        help="rates of every flight (default: the study's, else fast = 20 Hz plant, 5 Hz "
+        help="rates of every flight (default: the study's, else fast = 20 Hz plant, 10 Hz "
         "averaging sensor and filter; paper = 100 Hz; scenario = the base scenario's own)",
     )
     p.set_defaults(run=_Sweep)

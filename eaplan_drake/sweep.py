@@ -107,7 +107,7 @@ class Study:
     rates: str = DEFAULT_STUDY_RATES
     """Rates of every flight: a preset of :data:`~eaplan_drake.rates.RATE_PRESETS` applied to the
     base scenario before ``set`` (:func:`~eaplan_drake.rates.WithRates`): ``fast`` (default;
-    20 Hz plant, 5 Hz averaging sensor and filter, README "Rates"), ``paper`` (100 Hz, as
+    20 Hz plant, 10 Hz averaging sensor and filter, README "Rates"), ``paper`` (100 Hz, as
     ``simulate``), or ``scenario`` (the base scenario's own rates)."""
 
 
