@@ -67,6 +67,13 @@ RATE_TOLERANCE = 1e-9
 """Relative tolerance of "an integer multiple" between the periods of the rates [-]."""
 
 
+def IntegerMultiple(ratio: float) -> int:
+    """n when ``ratio`` is an integer n >= 1 within :data:`RATE_TOLERANCE` (relative, at least
+    absolute), else 0: the one test of "an integer multiple" between the rates' periods."""
+    n = round(ratio)
+    return n if n >= 1 and abs(ratio - n) <= RATE_TOLERANCE * max(ratio, 1.0) else 0
+
+
 def TicksPerPeriod(period: float, time_step: float | None) -> int:
     """n when ``period`` [s] is an integer multiple n >= 2 of the loop's base tick ``time_step``
     [s] (relative tolerance :data:`RATE_TOLERANCE`), else 1. A system with n > 1 declares its
@@ -75,9 +82,8 @@ def TicksPerPeriod(period: float, time_step: float | None) -> int:
     the other systems after their update."""
     if time_step is None or not period > 0.0 or not time_step > 0.0:
         return 1
-    ratio = float(period) / float(time_step)
-    n = round(ratio)
-    return n if n >= 2 and abs(ratio - n) <= RATE_TOLERANCE * ratio else 1
+    n = IntegerMultiple(float(period) / float(time_step))
+    return n if n >= 2 else 1
 
 
 MIN_MAX_STEP, MAX_MAX_STEP = 1e-4, 1.0
@@ -825,16 +831,15 @@ def _CheckRates(scenario: Scenario) -> None:
     for key, (period, shown) in periods.items():
         ratio = period / base
         _check(
-            abs(ratio - round(ratio)) <= RATE_TOLERANCE * ratio,
+            IntegerMultiple(ratio) >= 1,
             key,
             f"its period must be an integer multiple of the base period {base:g} s "
             f"({base_key}; every rate an integer multiple of one base, so that event times "
             f"coincide), got {shown} (period {period:g} s = {ratio:g} base periods)",
         )
     if scenario.sensor.averaging:
-        readings = scenario.sensor.native_rate / scenario.sensor.rate
         _check(
-            round(readings) >= 1 and abs(readings - round(readings)) <= RATE_TOLERANCE * readings,
+            IntegerMultiple(scenario.sensor.native_rate / scenario.sensor.rate) >= 1,
             "sensor.native_rate",
             f"with sensor.averaging must be an integer multiple of sensor.rate = "
             f"{scenario.sensor.rate:g} Hz, got {scenario.sensor.native_rate:g}",

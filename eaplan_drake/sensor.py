@@ -34,7 +34,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from eaplan_drake.params import RATE_TOLERANCE, SensorParams, TicksPerPeriod
+from eaplan_drake.params import IntegerMultiple, SensorParams, TicksPerPeriod
 
 __all__ = [
     "BLOCK_SIZE",
@@ -93,7 +93,7 @@ def BaseStepsPerSample(rate: float, time_step: float) -> int:
     """m = 1 / (f h): base steps h [s] per sample of a sensor at f [Hz], an integer >= 1.
 
     Raises ValueError (naming ``sensor.rate``) when 1/f is not an integer multiple of h
-    (relative tolerance :data:`RATE_TOLERANCE`)."""
+    (relative tolerance :data:`~eaplan_drake.params.RATE_TOLERANCE`)."""
     ratio = 1.0 / (float(rate) * float(time_step))
     return _IntegerRatio(
         ratio,
@@ -113,10 +113,10 @@ def ReadingsPerSample(native_rate: float, rate: float) -> int:
 
 
 def _IntegerRatio(ratio: float, error: str) -> int:
-    """round(ratio) when it is an integer >= 1 within :data:`RATE_TOLERANCE`; else ValueError
-    with the one-line ``error``."""
-    n = round(ratio)
-    if n < 1 or abs(ratio - n) > RATE_TOLERANCE * max(ratio, 1.0):
+    """:func:`~eaplan_drake.params.IntegerMultiple` of ``ratio``; ValueError with the one-line
+    ``error`` when it is not one."""
+    n = IntegerMultiple(ratio)
+    if not n:
         raise ValueError(error)
     return n
 

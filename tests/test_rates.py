@@ -8,7 +8,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from eaplan_drake.diagram import MakeEaplanDiagram
-from eaplan_drake.params import ScenarioError, TicksPerPeriod
+from eaplan_drake.params import IntegerMultiple, ScenarioError, TicksPerPeriod
 from eaplan_drake.rates import (
     DEFAULT_STUDY_RATES,
     RATE_PRESETS,
@@ -150,6 +150,15 @@ def test_rate_setting_labels():
     assert dc.replace(setting, averaging=False).Label() == "P20 S10 point"
     assert dc.replace(setting, estimator=5.0).Label() == "P20 S10 F5 avg"
     assert dc.replace(setting, sensor=20.0, estimator=20.0).Label() == "P20 S20 avg"
+
+
+def test_integer_multiple_within_the_rate_tolerance():
+    assert IntegerMultiple(3.0) == 3
+    assert IntegerMultiple(0.1 / 0.01) == 10  # 10.000000000000002
+    assert IntegerMultiple(2.0 * (1.0 + 1e-12)) == 2
+    assert IntegerMultiple(2.0 * (1.0 + 1e-6)) == 0
+    assert IntegerMultiple(1.5) == 0
+    assert IntegerMultiple(0.4) == 0
 
 
 def test_ticks_per_period_is_the_integer_multiple_of_the_base_tick():
