@@ -78,17 +78,20 @@ def _Simulate(args) -> int:
     from eaplan_drake.resolve import ResolveScenario
     from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
 
-    scenario = LoadNamedScenario(args.scenario, [OverrideFromAssignment(a) for a in args.set])
+    overrides = [OverrideFromAssignment(a) for a in args.set]
+    if args.rates:  # the preset first, then --set (as a study's rates and set)
+        from eaplan_drake.params import LayerScenario
+        from eaplan_drake.rates import WithRates
+
+        scenario = LayerScenario(WithRates(LoadNamedScenario(args.scenario), args.rates), overrides)
+        if args.rates != "paper":
+            scenario.name = f"{scenario.name}_{args.rates}"
+    else:
+        scenario = LoadNamedScenario(args.scenario, overrides)
     if args.policy:
         scenario.planner.policy = args.policy
         scenario.name = f"{scenario.name}_{args.policy}"
         scenario.Validate()
-    if args.rates:  # after --set: the preset's rate keys win (eaplan_drake.rates.WithRates)
-        from eaplan_drake.rates import WithRates
-
-        scenario = WithRates(scenario, args.rates)
-        if args.rates != "paper":
-            scenario.name = f"{scenario.name}_{args.rates}"
     ResolveScenario(scenario)  # every scenario error before the flight
     out = Path(args.out) / scenario.name
     out.parent.mkdir(parents=True, exist_ok=True)  # and an unusable --out
@@ -338,7 +341,7 @@ def main(argv=None) -> int:
         choices=tuple(RATE_PRESETS),
         default="",
         help="fly at a rate preset (fast = 20 Hz plant, 10 Hz averaging sensor and filter, the "
-        "studies' default; paper = 100 Hz); set after --set (name gets a suffix)",
+        "studies' default; paper = 100 Hz), before --set (name gets a suffix)",
     )
     p.set_defaults(run=_Simulate)
     p = sub.add_parser("diagram", help="write DOT and SVG of the closed loop and its systems")

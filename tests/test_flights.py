@@ -106,6 +106,16 @@ def test_cli_simulate_at_the_fast_rates(tmp_path, capsys):
     assert np.all(np.isfinite(log["soc"]))
 
 
+def test_cli_simulate_applies_the_rate_preset_before_set(tmp_path, capsys):
+    # As a study's rates and set: --set comes last, so a rate it sets is checked, not overwritten.
+    args = ["simulate", "plan_I", "--rates", "fast", "--set", "sensor.rate=30", "--out"]
+    assert cli_main([*args, str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith("eaplan-drake: scenario error: simulation.max_step: its period must")
+    assert "(sensor.rate; every rate an integer multiple of one base" in err[0]
+
+
 def test_cli_bad_scenario_is_one_line(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
     bad.write_text("battery: {capacity: -3}\n")
