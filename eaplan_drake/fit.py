@@ -60,6 +60,7 @@ from eaplan_drake.energy_model import (
     TransitionMatrices,
 )
 from eaplan_drake.estimator import KalmanGain, KalmanPredict, KalmanUpdate
+from eaplan_drake.rates import RescaledProcessNoise
 
 __all__ = [
     "BASELINES",
@@ -495,12 +496,13 @@ class PowerModelFit:
     def ScenarioFragment(self, estimator_rate: float = 100.0) -> str:
         """YAML for ``simulate`` with the fitted model (energy_model and estimator keys).
 
-        q_n and q_0 are random-walk variances per step, rescaled to the estimator's step 1/rate;
-        R is the log's per-sample noise (also the simulated sensor's σ = √R); τ and q_d are rate
-        independent.
+        q_n and q_0 are random-walk variances per step, rescaled from the log's step to the
+        estimator's step 1/rate (:func:`~eaplan_drake.rates.RescaledProcessNoise`); R is the log's
+        per-sample noise (also the simulated sensor's σ = √R); τ and q_d are rate independent.
         """
-        scale = (1.0 / estimator_rate) / self.time_step
-        qn = self.noise.process_noise * scale
+        log_rate = 1.0 / self.time_step
+        qn = RescaledProcessNoise(self.noise.process_noise, log_rate, estimator_rate)
+        q0 = RescaledProcessNoise(self.noise.mean_process_noise, log_rate, estimator_rate)
         tau = self.noise.aperiodic_time_constant
         name = self.model_name or ModelName(self.order, self.noise)
         lines = [
@@ -515,7 +517,7 @@ class PowerModelFit:
             "estimator:",
             f"  process_noise: {_YamlFloat(qn)}",
             f"  measurement_noise: {_YamlFloat(self.noise.measurement_noise)}",
-            f"  mean_process_noise: {_YamlFloat(self.noise.mean_process_noise * scale)}",
+            f"  mean_process_noise: {_YamlFloat(q0)}",
         ]
         if tau > 0.0:
             lines += [
