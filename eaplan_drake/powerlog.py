@@ -244,8 +244,13 @@ def ReadPeriodLog(path, step: float = AUTHORS_CONTROL_STEP) -> tuple[np.ndarray,
     Rows are (control step, T [s]), logged when T changes; t = step × ``step``. Their estimator
     reports the time since the last lap start while it exceeds the last lap's duration (the
     first lap: T grows from 1 s), and holds the last lap's duration otherwise. A row that is
-    not two numbers, or steps that decrease, is a :class:`PowerLogError` naming the line.
+    not two numbers, or steps that decrease, is a :class:`PowerLogError` naming the line; so is
+    a ``step`` that is not a finite number > 0 [s].
     """
+    if not (isinstance(step, int | float) and math.isfinite(step) and step > 0.0):
+        raise PowerLogError(
+            f"period log step (fit --period-log-step) must be a finite number > 0 s, got {step!r}"
+        )
     path = Path(path)
     try:
         lines = path.read_text(encoding="utf-8-sig").splitlines()

@@ -298,6 +298,9 @@ def test_read_authors_period_log(tmp_path):
     f.write_text("99,1\n\n98,2\n")  # a blank line is skipped, the line number kept
     with pytest.raises(PowerLogError, match=r"perioddata.csv:3: step decreases"):
         ReadPeriodLog(f)
+    for step in (0.0, -0.01, float("nan")):  # a step that would fold the log onto one time
+        with pytest.raises(PowerLogError, match=r"--period-log-step\) must be a finite number > 0"):
+            ReadPeriodLog(f, step)
 
 
 def test_level_noise_recovers_the_local_level_ratio():
