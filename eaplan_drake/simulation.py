@@ -39,7 +39,7 @@ import numpy as np
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator, SimulatorStatus
 
 from eaplan_drake.battery import STATUS_BROWNOUT, STATUS_RESERVE
-from eaplan_drake.diagram import LOGGED_SIGNALS, MakeEaplanDiagram
+from eaplan_drake.diagram import LoggedSignals, MakeEaplanDiagram
 from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
 from eaplan_drake.planner import PlannerPolicy
 from eaplan_drake.plant import NonFiniteCommandError
@@ -527,14 +527,7 @@ def EndReason(status: str, time: float, scenario: Scenario, coverage_remaining: 
 
 
 def _CollectLog(diagram, context) -> FlightLog:
-    signals = {}
-    times = None
-    for name in LOGGED_SIGNALS:
-        logger = diagram.GetSubsystemByName(f"log_{name}")
-        log = logger.FindLog(context)
-        if times is None:
-            times = np.array(log.sample_times())
-        signals[name] = np.array(log.data()).T
+    times, signals = LoggedSignals(diagram, context)
     return FlightLog(times=times, signals=signals, summary={})
 
 

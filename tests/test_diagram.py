@@ -7,7 +7,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.primitives import LogVectorOutput
 
-from eaplan_drake.diagram import LOGGED_SIGNALS, MakeEaplanDiagram
+from eaplan_drake.diagram import LOGGED_SIGNALS, LoggedSignals, MakeEaplanDiagram
 from eaplan_drake.graphviz import DiagramDots
 from eaplan_drake.params import LoadScenario, Scenario
 
@@ -29,7 +29,7 @@ def test_every_system_is_named_and_key_ports_are_exported():
     diagram = MakeEaplanDiagram(Scenario())
     names = {s.get_name() for s in diagram.GetSystems()}
     assert SYSTEMS <= names
-    assert {f"log_{n}" for n in LOGGED_SIGNALS} <= names
+    assert {"log_mux", "log"} <= names  # every logged signal through one sink
     for port in [*LOGGED_SIGNALS, "mission_complete"]:
         assert diagram.HasOutputPort(port)
 
@@ -42,6 +42,20 @@ def test_short_closed_loop_run_stays_finite():
     for port in [*LOGGED_SIGNALS, "mission_complete"]:
         assert np.all(np.isfinite(diagram.GetOutputPort(port).Eval(ctx))), port
     assert diagram.GetSubsystemByName("planner").statistics()["solves"] >= 3
+
+
+def test_logged_signals_split_the_one_sink_into_the_exported_ports():
+    diagram = MakeEaplanDiagram(LoadScenario(data="planner: {warmup: 2.0}"), log_period=0.5)
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(3.0)  # samples at 0, 0.5, …, 3.0: the last one at the context's time
+    ctx = simulator.get_context()
+    times, signals = LoggedSignals(diagram, ctx)
+    np.testing.assert_allclose(times, np.arange(7) * 0.5, rtol=0, atol=1e-12)
+    assert list(signals) == list(LOGGED_SIGNALS)
+    for name, values in signals.items():
+        now = diagram.GetOutputPort(name).Eval(ctx)
+        assert values.shape == (7, now.size), name
+        np.testing.assert_array_equal(values[-1], now, err_msg=name)
 
 
 def test_the_estimator_behind_an_averaging_sensor_uses_r_over_n():
