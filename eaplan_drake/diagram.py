@@ -4,26 +4,27 @@
 
     wind ─► FixedWingPlant ─► StageSequencer ─► VectorFieldGuidance ─► (plant)
                  │ motion_power                       ▲ path
-                 ▼                                    │
-    ComputationLoad ─► PowerSensor ─► EnergyEstimator ─► PlannerScheduler ─► path_parameters
-         ▲  power        │ true_power                 ▲ soc        │
-         │               └────────► Battery ──────────┘            │ computation_parameters
-         └─────────────────────────────────────────────────────────┘
+                 └──────────┐                         │
+    ComputationLoad ─► total_power (Adder) ─► PowerSensor ─► EnergyEstimator ─► PlannerScheduler
+         ▲  power           │ y                                 ▲ soc           │ c1 (sequencer)
+         │                  └──────────► Battery ───────────────┘               │ c2
+         └──────────────────────────────────────────────────────────────────────┘
 
 The planner's policy is ``scenario.planner.policy`` (:func:`~eaplan_drake.policies.MakePolicy`)
 or any :class:`~eaplan_drake.planner.PlannerPolicy` passed as ``policy``; a static plan (paper 003
 plans I and II) is the same diagram with ``planner.policy: static``. Every system is named
-(``plant``, ``sequencer``, ``guidance``, ``computation``, ``sensor``, ``estimator``, ``battery``,
-``planner``, ``wind``), the key signals are exported as diagram output ports of the same names,
-and the logged signals (:data:`LOGGED_SIGNALS`) go through one ``Multiplexer`` named ``log_mux``
-into one ``VectorLogSink`` named ``log``; :func:`LoggedSignals` splits its rows by signal.
+(``plant``, ``sequencer``, ``guidance``, ``computation``, ``total_power``, ``sensor``,
+``estimator``, ``battery``, ``planner``, ``wind``), the key signals are exported as diagram
+output ports of the same names, and the logged signals (:data:`LOGGED_SIGNALS`) go through one
+``Multiplexer`` named ``log_mux`` into one ``VectorLogSink`` named ``log``; :func:`LoggedSignals`
+splits its rows by signal.
 """
 
 import dataclasses as dc
 
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
-from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, Multiplexer
+from pydrake.systems.primitives import Adder, ConstantVectorSource, LogVectorOutput, Multiplexer
 
 from eaplan_drake.battery import Battery
 from eaplan_drake.computation import ComputationLoad
@@ -61,7 +62,7 @@ LOGGED_SIGNALS = {
     "coverage_remaining": ("sequencer", "coverage_remaining"),
     "computation_power": ("computation", "power"),
     "measured_power": ("sensor", "measured_power"),
-    "true_power": ("sensor", "true_power"),
+    "true_power": ("total_power", "sum"),
     "estimated_power": ("estimator", "estimated_power"),
     "energy_coefficients": ("estimator", "energy_coefficients"),
     "soc": ("battery", "soc"),
@@ -95,6 +96,8 @@ class EnergyLoop:
     sensor: PowerSensor
     estimator: EnergyEstimator
     battery: Battery
+    total_power: Adder
+    """y = P_motion + g [W], the sensor's and the battery's ``power`` input."""
 
 
 def AddGuidedAircraft(
@@ -170,14 +173,16 @@ def AddEnergyLoop(
     computation_parameters: list[float] | None = None,
 ) -> EnergyLoop:
     """Adds and wires the energy side of ``scenario`` to ``builder``: ``computation``
-    (:class:`~eaplan_drake.computation.ComputationLoad` over ``table``), ``sensor``
+    (:class:`~eaplan_drake.computation.ComputationLoad` over ``table``), ``total_power`` (an
+    ``Adder``: y = motion power + computation power [W]), ``sensor``
     (:class:`~eaplan_drake.sensor.PowerSensor`, seeded by ``scenario.SensorSeed()``),
     ``estimator`` (:class:`~eaplan_drake.estimator.EnergyEstimator`) and ``battery``
     (:class:`~eaplan_drake.battery.Battery`)::
 
-        motion_power ─► sensor ◄─ computation          period ─► estimator
-                          ├─ measured_power ─► estimator ◄─ computation power
-                          └─ true_power ─► battery
+        motion_power ─► total_power ◄─ computation      period ─► estimator
+                          │ y (Adder)
+                          ├─► sensor ─ measured_power ─► estimator ◄─ computation power
+                          └─► battery
 
     The sensor runs on the base step ``simulation.max_step``; behind an averaging sensor
     (``sensor.averaging``) the estimator's R is ``measurement_noise`` / n
@@ -189,6 +194,7 @@ def AddEnergyLoop(
     ``computation_parameters`` (table units) when given.
     """
     computation = builder.AddNamedSystem("computation", ComputationLoad(table))
+    total = builder.AddNamedSystem("total_power", Adder(2, 1))  # y = P_motion + g [W]
     sensor = builder.AddNamedSystem(
         "sensor",
         PowerSensor(
@@ -210,18 +216,25 @@ def AddEnergyLoop(
         "battery", Battery(scenario.battery, time_step=scenario.simulation.max_step)
     )
     connect = builder.Connect
-    connect(motion_power, sensor.GetInputPort("motion_power"))
-    connect(computation.GetOutputPort("power"), sensor.GetInputPort("computation_power"))
+    connect(motion_power, total.get_input_port(0))
+    connect(computation.GetOutputPort("power"), total.get_input_port(1))
+    connect(total.get_output_port(), sensor.GetInputPort("power"))
     connect(computation.GetOutputPort("power"), estimator.GetInputPort("computation_power"))
     connect(sensor.GetOutputPort("measured_power"), estimator.GetInputPort("measured_power"))
     connect(period, estimator.GetInputPort("period"))
-    connect(sensor.GetOutputPort("true_power"), battery.GetInputPort("power"))
+    connect(total.get_output_port(), battery.GetInputPort("power"))
     if computation_parameters is not None:
         c2 = builder.AddNamedSystem(
             "computation_parameters", ConstantVectorSource(list(computation_parameters))
         )
         connect(c2.get_output_port(), computation.GetInputPort("computation_parameters"))
-    return EnergyLoop(computation=computation, sensor=sensor, estimator=estimator, battery=battery)
+    return EnergyLoop(
+        computation=computation,
+        sensor=sensor,
+        estimator=estimator,
+        battery=battery,
+        total_power=total,
+    )
 
 
 def AddPlannerScheduler(
@@ -359,6 +372,7 @@ def MakeEaplanDiagram(
             aircraft.sequencer,
             aircraft.guidance,
             energy.computation,
+            energy.total_power,
             energy.sensor,
             energy.estimator,
             energy.battery,

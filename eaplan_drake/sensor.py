@@ -1,5 +1,8 @@
 """Power sensor: the total drain y = P_motion + P_computation, sampled with noise and dropouts.
 
+The sensor's input is y itself (in the closed loop an ``Adder`` named ``total_power`` sums the
+plant's motion power and the computation load, and the battery reads the same sum).
+
 Sample k is taken at t_k = k / f (f = ``SensorParams.rate`` [Hz]):
 
     Υ_k = P_motion(t_k) + P_computation(t_k) + σ z_k,   z_k ~ N(0, 1),
@@ -149,15 +152,16 @@ def AveragedSample(
 class PowerSensor(LeafSystem):
     """Noisy, sampled measurement of the total power drain y = P_motion + P_computation [W].
 
-    ``measured_power`` is the sample Υ_k of the module docstring, zero-order held from t_k to
-    t_{k+1} (discrete state updated at ``params.rate`` [Hz]; no direct feedthrough). It is NaN
-    when the sample was dropped (probability ``dropout_probability``), and NaN before the first
-    sample is taken (the update at the first t_k ≥ start time), so consumers must skip non-finite
-    samples. With ``noise_std`` = 0 and no dropout it is exactly the sum at t_k.
-    ``true_power`` is the noise-free sum y(t), direct feedthrough.
+    Input ``power``: the true total power y(t) [W] (the diagram sums it with an ``Adder``; the
+    battery reads the same signal). ``measured_power`` is the sample Υ_k of the module
+    docstring, zero-order held from t_k to t_{k+1} (discrete state updated at ``params.rate``
+    [Hz]; no direct feedthrough). It is NaN when the sample was dropped (probability
+    ``dropout_probability``), and NaN before the first sample is taken (the update at the first
+    t_k ≥ start time), so consumers must skip non-finite samples. With ``noise_std`` = 0 and no
+    dropout it is exactly y(t_k).
 
-    The sample is :func:`PowerSample` of the cached ``true_power`` (which the battery reads at the
-    same update) and the draws of index k = round(t_k · rate), so the draws depend only on
+    The sample is :func:`PowerSample` of the ``power`` input and the draws of index
+    k = round(t_k · rate), so the draws depend only on
     (seed, t_k); the current block of draws is cached in the system (a pure function of seed and
     block number, not state), which keeps the 100 Hz update cheap. The system keeps a copy of
     ``params``.
@@ -174,11 +178,9 @@ class PowerSensor(LeafSystem):
 
         name: PowerSensor
         input_ports:
-        - motion_power
-        - computation_power
+        - power
         output_ports:
         - measured_power
-        - true_power
     """
 
     def __init__(self, params: SensorParams, *, time_step: float | None = None):
@@ -193,8 +195,7 @@ class PowerSensor(LeafSystem):
         self._dropped: list[bool] = []
         self._z: list[float] = []
 
-        self._motion_port = self.DeclareVectorInputPort("motion_power", 1)
-        self._computation_port = self.DeclareVectorInputPort("computation_power", 1)
+        self._power_port = self.DeclareVectorInputPort("power", 1)
         self._state_index = self.DeclareDiscreteState(np.array([math.nan]))
         if params.averaging:
             if time_step is None:
@@ -216,12 +217,6 @@ class PowerSensor(LeafSystem):
                 self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._Sample)
         # The held sample is a state group: a state output port, no Python call per read.
         self._measured_port = self.DeclareStateOutputPort("measured_power", self._state_index)
-        self._true_port = self.DeclareVectorOutputPort(
-            "true_power",
-            1,
-            self._CalcTrue,
-            prerequisites_of_calc={self._motion_port.ticket(), self._computation_port.ticket()},
-        )
 
     @property
     def params(self) -> SensorParams:
@@ -263,15 +258,14 @@ class PowerSensor(LeafSystem):
         block, local = divmod(k, BLOCK_SIZE)
         if block != self._block:
             self._LoadBlock(block)
-        # true_power is a cached output: the battery reads the same value at this update.
-        y = self._true_port.Eval(context)[0]
+        y = self._power_port.Eval(context)[0]
         value = PowerSample(y, self._noise[local], self._dropped[local])
         discrete_state.get_mutable_vector().SetAtIndex(0, value)
 
     def _Accumulate(self, context, discrete_state) -> None:
         j = int(round(context.get_time() / self._time_step))
         acc = discrete_state.get_mutable_value(self._sum_index)
-        acc[0] += self._true_port.Eval(context)[0]
+        acc[0] += self._power_port.Eval(context)[0]
         acc[1] += 1.0
         if j % self._m != self._m - 1:
             return
@@ -287,8 +281,3 @@ class PowerSensor(LeafSystem):
         discrete_state.get_mutable_value(self._state_index)[0] = value
         acc[0] = 0.0
         acc[1] = 0.0
-
-    def _CalcTrue(self, context, output) -> None:
-        output.SetAtIndex(
-            0, self._motion_port.Eval(context)[0] + self._computation_port.Eval(context)[0]
-        )

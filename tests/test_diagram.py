@@ -18,6 +18,7 @@ SYSTEMS = {
     "sequencer",
     "guidance",
     "computation",
+    "total_power",
     "sensor",
     "estimator",
     "battery",
@@ -107,7 +108,7 @@ def test_the_builders_make_an_open_loop_flight_at_constant_parameters():
         period=aircraft.sequencer.GetOutputPort("period"),
         computation_parameters=[4.0],
     )
-    true_power = energy.sensor.GetOutputPort("true_power")
+    true_power = energy.total_power.get_output_port()
     logger = LogVectorOutput(true_power, builder, publish_period=s.simulation.max_step)
     diagram = builder.Build()
     simulator = Simulator(diagram)

@@ -22,12 +22,13 @@ def test_loop_dot_merges_the_signals_between_two_systems_into_one_edge():
 
 def test_the_loop_picture_shows_the_systems_not_the_loggers_or_exported_ports():
     dot = DiagramDots()["loop"]
-    for name in ("wind", "plant", "sequencer", "guidance", "computation", "sensor"):
+    for name in ("wind", "plant", "sequencer", "guidance", "computation", "total_power", "sensor"):
         assert f'"{name}" [label=' in dot
     for name in ("estimator", "battery", "planner"):
         assert f'"{name}" [label=' in dot
     assert "log_" not in dot and "output ports" not in dot
-    assert dot.count(" -> ") == 16  # one edge per connected pair of systems
+    assert dot.count(" -> ") == 17  # one edge per connected pair of systems
     assert '"planner" -> "sequencer" [label="path_parameters"]' in dot
-    assert '"sensor" -> "battery" [label="true_power → power"]' in dot
+    assert '"total_power" -> "battery" [label="sum → power"]' in dot
+    assert '"total_power" -> "sensor" [label="sum → power"]' in dot
     assert len(LOGGED_SIGNALS) > 10  # the detailed picture still exports every logged signal

@@ -32,7 +32,8 @@ def TruePower(t):
 
 
 def MakeDiagram(params: SensorParams, time_step: float | None = None):
-    """Sensor fed by a constant motion power and a sinusoidal computation power."""
+    """Sensor fed by the sum of a constant motion power and a sinusoidal computation power (that
+    sum y is also the diagram's output port ``true_power``)."""
     builder = DiagramBuilder()
     sensor = builder.AddSystem(PowerSensor(params, time_step=time_step))
     motion = builder.AddSystem(ConstantVectorSource([MOTION]))
@@ -41,8 +42,11 @@ def MakeDiagram(params: SensorParams, time_step: float | None = None):
     adder = builder.AddSystem(Adder(2, 1))
     builder.Connect(sine.get_output_port(0), adder.get_input_port(0))
     builder.Connect(offset.get_output_port(), adder.get_input_port(1))
-    builder.Connect(motion.get_output_port(), sensor.GetInputPort("motion_power"))
-    builder.Connect(adder.get_output_port(), sensor.GetInputPort("computation_power"))
+    total = builder.AddSystem(Adder(2, 1))
+    builder.Connect(motion.get_output_port(), total.get_input_port(0))
+    builder.Connect(adder.get_output_port(), total.get_input_port(1))
+    builder.Connect(total.get_output_port(), sensor.GetInputPort("power"))
+    builder.ExportOutput(total.get_output_port(), "true_power")
     diagram = builder.Build()
     simulator = Simulator(diagram)
     return sensor, simulator
@@ -61,32 +65,26 @@ def Samples(sensor, simulator, count: int) -> np.ndarray:
 
 def test_ports_and_sizes():
     sensor = PowerSensor(SensorParams())
-    assert sensor.num_input_ports() == 2 and sensor.num_output_ports() == 2
-    for name in ("motion_power", "computation_power"):
-        assert sensor.GetInputPort(name).size() == 1
-    for name in ("measured_power", "true_power"):
-        assert sensor.GetOutputPort(name).size() == 1
-    measured = sensor.GetOutputPort("measured_power").get_index()
-    true = sensor.GetOutputPort("true_power").get_index()
-    for i in range(2):
-        assert not sensor.HasDirectFeedthrough(i, measured)
-        assert sensor.HasDirectFeedthrough(i, true)
+    assert sensor.num_input_ports() == 1 and sensor.num_output_ports() == 1
+    assert sensor.GetInputPort("power").size() == 1
+    assert sensor.GetOutputPort("measured_power").size() == 1
+    assert not sensor.HasDirectFeedthrough(0, 0)
     assert sensor.period == pytest.approx(0.01)
 
 
 def test_zero_noise_gives_the_exact_sum_sampled_and_held():
     sensor, simulator = MakeDiagram(SensorParams(noise_std=0.0))
     context = sensor.GetMyContextFromRoot(simulator.get_context())
-    # Before the first sample the output is NaN ("no sample yet"); true_power is always there.
+    true_power = simulator.get_system().GetOutputPort("true_power")
+    root = simulator.get_context()
+    # Before the first sample the output is NaN ("no sample yet"); the input y is always there.
     assert math.isnan(sensor.GetOutputPort("measured_power").Eval(context)[0])
-    assert sensor.GetOutputPort("true_power").Eval(context)[0] == TruePower(0.0)
+    assert true_power.Eval(root)[0] == TruePower(0.0)
     samples = Samples(sensor, simulator, 300)
     t_k = np.arange(300) * sensor.period
     np.testing.assert_allclose(samples, TruePower(t_k), rtol=0, atol=1e-12)
     # Held between samples: at t_k + h/2 the true power has moved on, the sample has not.
-    assert sensor.GetOutputPort("true_power").Eval(context)[0] == pytest.approx(
-        TruePower(299.5 * sensor.period), abs=1e-12
-    )
+    assert true_power.Eval(root)[0] == pytest.approx(TruePower(299.5 * sensor.period), abs=1e-12)
     assert abs(samples[-1] - TruePower(299.5 * sensor.period)) > 1e-4
 
 
