@@ -61,17 +61,28 @@ __all__ = [
     "KalmanUpdate",
 ]
 
+_DID_NOTHING = EventStatus.DidNothing()
+"""The status of a base tick that is not this system's (one object, not one per call)."""
 
-def KalmanPredict(q, P, Ad, Q):
+
+def KalmanPredict(q, P, Ad, Q, out=None):
     """Time update: (A_d q, A_d P A_dᵀ + Q) with P symmetrised; q [W], P and Q [W²] (m×m).
 
-    A known input B Δg enters in :func:`KalmanStep`, before the measurement update.
+    A known input B Δg enters in :func:`KalmanStep`, before the measurement update. ``out``:
+    optional (q_out (m,), P_out (m×m)) arrays the result is written into and returned (the same
+    values bit for bit; they may be the storage of ``q`` and ``P``, e.g. a system's state).
     """
     P = Ad.dot(P).dot(Ad.T)  # ndarray.dot: the cheapest call for small matrices
     P = P + P.T
     P *= 0.5
-    P += Q
-    return Ad.dot(q), P
+    if out is None:
+        P += Q
+        return Ad.dot(q), P
+    q_out, P_out = out
+    q_next = Ad.dot(q)
+    np.add(P, Q, out=P_out)
+    q_out[:] = q_next
+    return q_out, P_out
 
 
 def KalmanGain(P, c, R: float):
@@ -102,21 +113,23 @@ def KalmanUpdate(q, P, c, R: float, z: float):
     return q, P - (M + M.T)
 
 
-def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float):
+def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float, out=None):
     """One filter step at t_k: add B Δg_k to α0, update with z_k, predict to t_{k+1}.
 
     (q_prior [W], P_prior [W²]) is the a priori estimate at t_k, z_k [W] the sample (non-finite:
     prediction only), Δg_k [W] the known change of the computation power, A_d = A_d(T) and
     Q [W²] (m×m) precomputed (:func:`~eaplan_drake.energy_model.DiscreteEnergyMatrices`,
     :func:`~eaplan_drake.energy_model.ProcessNoiseMatrix`), ``c`` the output row C, R [W²].
-    Returns the a priori (q̂⁻, P⁻) for t_{k+1} as new arrays. B = e_0 (Δg enters α0 only).
+    Returns the a priori (q̂⁻, P⁻) for t_{k+1} as new arrays, or written into ``out`` = (q_out,
+    P_out) (:func:`KalmanPredict`; they may be the prior's own storage). B = e_0 (Δg enters α0
+    only).
     """
     q = np.asarray(q_prior, dtype=float)
     if dg != 0.0:
         q = q.copy()
         q[0] += dg
     q, P = KalmanUpdate(q, P_prior, c, R, z)
-    return KalmanPredict(q, P, Ad, Q)
+    return KalmanPredict(q, P, Ad, Q, out)
 
 
 class EnergyEstimator(LeafSystem):
@@ -269,7 +282,7 @@ class EnergyEstimator(LeafSystem):
 
     def _Update(self, context: Context, discrete_state: DiscreteValues):
         if self._ticks > 1 and round(context.get_time() / self._tick) % self._ticks:
-            return EventStatus.DidNothing()
+            return _DID_NOTHING
         # Drake fills discrete_state with the context's current values before this handler
         # (LeafSystem::DispatchDiscreteVariableUpdateHandler): read and write it in place.
         q = discrete_state.get_mutable_value(self._q_index)
@@ -280,11 +293,9 @@ class EnergyEstimator(LeafSystem):
         T = self._period_port.Eval(context)[0]
         dg = KnownInputStep(memory, g, T)
         m = self._m
-        q_next, P_next = KalmanStep(
-            q, P.reshape(m, m), z, dg, self._transition(memory[1]), self._c, self._Q, self._R
-        )
-        q[:] = q_next
-        P[:] = P_next.reshape(-1)
+        P = P.reshape(m, m)  # a view of the state: the step writes its result in place
+        Ad = self._transition(memory[1])
+        KalmanStep(q, P, z, dg, Ad, self._c, self._Q, self._R, out=(q, P))
         return None
 
     def _CalcPower(self, context: Context, output: BasicVector) -> None:

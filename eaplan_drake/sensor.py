@@ -52,6 +52,9 @@ __all__ = [
     "ReadingsPerSample",
 ]
 
+_DID_NOTHING = EventStatus.DidNothing()
+"""The status of a base tick that is not this system's (one object, not one per call)."""
+
 BLOCK_SIZE = 4096
 """Samples per pre-generated block of draws."""
 
@@ -253,14 +256,14 @@ class PowerSensor(LeafSystem):
 
     def _Sample(self, context, discrete_state):
         if self._ticks > 1 and round(context.get_time() / self._time_step) % self._ticks:
-            return EventStatus.DidNothing()
+            return _DID_NOTHING
         k = int(round(context.get_time() * self._rate))
         block, local = divmod(k, BLOCK_SIZE)
         if block != self._block:
             self._LoadBlock(block)
         y = self._power_port.Eval(context)[0]
         value = PowerSample(y, self._noise[local], self._dropped[local])
-        discrete_state.get_mutable_vector().SetAtIndex(0, value)
+        discrete_state.get_mutable_value(self._state_index)[0] = value
 
     def _Accumulate(self, context, discrete_state) -> None:
         j = int(round(context.get_time() / self._time_step))

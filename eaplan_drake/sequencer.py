@@ -64,6 +64,10 @@ from eaplan_drake.coverage import (
 
 __all__ = ["SequencerMode", "StageSequencer", "StageSource", "Triggered", "UPDATE_PERIOD"]
 
+_DID_NOTHING = EventStatus.DidNothing()
+_SUCCEEDED = EventStatus.Succeeded()
+"""Event statuses returned on the hot path (one object each, not one per call)."""
+
 UPDATE_PERIOD = 0.05
 """Default period of the sequencer's trigger test [s] (the authors' simulator's)."""
 
@@ -316,7 +320,7 @@ class StageSequencer(LeafSystem):
 
     def _Update(self, context, discrete_state):
         if self._ticks > 1 and round(context.get_time() / self._time_step) % self._ticks:
-            return EventStatus.DidNothing()
+            return _DID_NOTHING
         # Drake fills discrete_state with the context's values before this handler
         # (LeafSystem::DispatchDiscreteVariableUpdateHandler): the groups are read and written in
         # place; entries, source, period and path change at stage switches only.
@@ -336,7 +340,7 @@ class StageSequencer(LeafSystem):
                     c1 = c1_in
                     mode[_C1] = c1
         if not (math.isfinite(px) and math.isfinite(py)):
-            return EventStatus.Succeeded()
+            return _SUCCEEDED
         complete = False
         if Triggered(stage, (px, py), self._epsilon):
             stage, complete = self._Switch(context, discrete_state, stage, (px, py), c1)
@@ -351,7 +355,7 @@ class StageSequencer(LeafSystem):
         if complete:
             discrete_state.get_mutable_value(self._complete_index)[0] = 1.0
             return EventStatus.ReachedTermination(self, "complete")
-        return EventStatus.Succeeded()
+        return _SUCCEEDED
 
     def _Switch(self, context, discrete_state, stage, position, c1) -> tuple[Stage, bool]:
         """Moves past every stage whose triggering point ``position`` has reached (several

@@ -134,6 +134,24 @@ def test_joseph_update_equals_standard_form_and_skips_nan():
     np.testing.assert_allclose(P1, L @ P @ L.T + R * K @ K.T, rtol=0.0, atol=1e-12)
 
 
+def test_kalman_step_written_in_place_is_the_same_bit_for_bit():
+    """``out`` = the prior's own storage (as the system uses it) gives exactly the new arrays,
+    for a sample, a dropped sample, and with and without a known input step."""
+    rng = np.random.default_rng(5)
+    Ad = _rotation(3, T_REF, H)
+    C = np.array([1.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0])
+    Q = 1e-6 * np.eye(7)
+    A = rng.normal(size=(7, 7))
+    q, P = rng.normal(size=7), A @ A.T + np.eye(7)
+    for z, dg in ((31.0, 0.0), (np.nan, 0.0), (29.5, 1.25), (np.inf, -0.5)):
+        q_new, P_new = KalmanStep(q, P, z, dg, Ad, C, Q, 0.25)
+        q_mem, P_mem = q.copy(), P.copy()
+        q_out, P_out = KalmanStep(q_mem, P_mem, z, dg, Ad, C, Q, 0.25, out=(q_mem, P_mem))
+        assert q_out is q_mem and P_out is P_mem
+        assert np.array_equal(q_mem, q_new) and np.array_equal(P_mem, P_new)
+        q, P = q_new, P_new
+
+
 def test_covariance_stays_symmetric_positive_definite():
     rng = np.random.default_rng(2)
     Ad = _rotation(3, T_REF, H)
