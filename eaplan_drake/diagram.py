@@ -150,9 +150,7 @@ def AddGuidedAircraft(
     connect = builder.Connect
     connect(wind.get_output_port(), plant.GetInputPort("wind"))
     connect(plant.GetOutputPort("position"), sequencer.GetInputPort("position"))
-    connect(plant.GetOutputPort("position"), guidance.GetInputPort("position"))
-    connect(plant.GetOutputPort("ground_velocity"), guidance.GetInputPort("ground_velocity"))
-    connect(plant.GetOutputPort("heading"), guidance.GetInputPort("heading"))
+    connect(plant.GetOutputPort("kinematics"), guidance.GetInputPort("kinematics"))
     connect(sequencer.GetOutputPort("path"), guidance.GetInputPort("path"))
     connect(
         guidance.GetOutputPort("heading_rate_command"), plant.GetInputPort("heading_rate_command")

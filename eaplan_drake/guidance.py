@@ -181,16 +181,17 @@ class VectorFieldGuidance(LeafSystem):
         wind_speed: optional ‖w‖ [m/s]; if given it must be in [0, airspeed) (ValueError
             otherwise). The wind itself is not an input: the measured ground velocity carries it.
 
-    All outputs are direct feedthrough of the inputs (the plant's ``position``, ``heading`` and
-    ``ground_velocity`` do not depend on its command, so there is no algebraic loop).
+    Inputs: ``kinematics`` (5) (x, y, ψ, ṗ_x, ṗ_y) [m, m, rad, m/s, m/s], the plant's output of
+    the same name (:data:`~eaplan_drake.plant.AircraftKinematics`: position, heading, ground
+    velocity; one port, so one read per evaluation), and ``path`` (the descriptor). All outputs
+    are direct feedthrough of the inputs (the plant's ``kinematics`` does not depend on its
+    command, so there is no algebraic loop).
 
     .. pydrake_system::
 
         name: VectorFieldGuidance
         input_ports:
-        - position
-        - ground_velocity
-        - heading
+        - kinematics
         - path
         output_ports:
         - heading_rate_command
@@ -223,9 +224,7 @@ class VectorFieldGuidance(LeafSystem):
         self._k_d = float(guidance.k_d)
         self._max_rate = float(max_heading_rate)
 
-        self._position_port = self.DeclareVectorInputPort("position", 2)
-        self._ground_velocity_port = self.DeclareVectorInputPort("ground_velocity", 2)
-        self._heading_port = self.DeclareVectorInputPort("heading", 1)
+        self._kinematics_port = self.DeclareVectorInputPort("kinematics", 5)
         self._path_port = self.DeclareVectorInputPort("path", DESCRIPTOR_SIZE)
         self._command_port = self.DeclareVectorOutputPort(
             "heading_rate_command",
@@ -238,14 +237,8 @@ class VectorFieldGuidance(LeafSystem):
         """ψ̇_max [rad/s]."""
         return self._max_rate
 
-    def get_position_input_port(self):
-        return self._position_port
-
-    def get_ground_velocity_input_port(self):
-        return self._ground_velocity_port
-
-    def get_heading_input_port(self):
-        return self._heading_port
+    def get_kinematics_input_port(self):
+        return self._kinematics_port
 
     def get_path_input_port(self):
         return self._path_port
@@ -254,12 +247,13 @@ class VectorFieldGuidance(LeafSystem):
         return self._command_port
 
     def _CalcCommand(self, context, output):
+        x, y, psi, vx, vy = self._kinematics_port.Eval(context).tolist()
         output.SetAtIndex(
             0,
             HeadingRateCommand(
-                self._position_port.Eval(context).tolist(),
-                self._ground_velocity_port.Eval(context).tolist(),
-                self._heading_port.Eval(context).item(0),
+                (x, y),
+                (vx, vy),
+                psi,
                 self._path_port.Eval(context).tolist(),
                 self._airspeed,
                 self._k_d,

@@ -58,6 +58,7 @@ from eaplan_drake.params import PLANT_MODELS, MotionPowerParams, SimulationParam
 
 __all__ = [
     "GRAVITY",
+    "AircraftKinematics",
     "AircraftState",
     "ArcStep",
     "CheckedCommand",
@@ -82,6 +83,10 @@ GRAVITY = 9.81
 
 AircraftState = namedview("AircraftState", ["x", "y", "heading"])
 """The aircraft's state (x, y, ψ) [m, m, rad] as a named view of a 3-vector."""
+
+AircraftKinematics = namedview("AircraftKinematics", ["x", "y", "heading", "vx", "vy"])
+"""The ``kinematics`` output (x, y, ψ, ṗ_x, ṗ_y) [m, m, rad, m/s, m/s]: the pose and the ground
+velocity, what the guidance reads (one port, one read per step)."""
 
 _SINC_SERIES_BELOW = 1e-4
 """|θ| below which S(θ) = sin θ / θ is taken from its series 1 − θ²/6 (next term < 1e-18)."""
@@ -293,6 +298,9 @@ class _FixedWingPorts:
     def get_ground_velocity_output_port(self):
         return self._ground_velocity_port
 
+    def get_kinematics_output_port(self):
+        return self._kinematics_port
+
     def get_motion_power_output_port(self):
         return self._motion_power_port
 
@@ -330,7 +338,9 @@ def FixedWingPlant_(T):
         - ``ground_velocity`` (2) ṗ = v_a m(ψ) + w [m/s], depends on the state and ``wind`` (not
           on the command, so plant + guidance form no algebraic loop);
         - ``motion_power`` (1) P_m [W] at the saturated heading rate, i.e. the power of the rate
-          applied from now on (direct feedthrough of the command only).
+          applied from now on (direct feedthrough of the command only);
+        - ``kinematics`` (5) (x, y, ψ, ṗ) [m, m, rad, m/s, m/s] (:data:`AircraftKinematics`):
+          position, heading and ground velocity in one vector, the guidance's input.
 
         Supports scalar conversion (ToAutoDiffXd, ToSymbolic).
 
@@ -345,6 +355,7 @@ def FixedWingPlant_(T):
             - heading
             - ground_velocity
             - motion_power
+            - kinematics
         """
 
         def _construct(self, vehicle: VehicleParams, converter=None):
@@ -367,6 +378,12 @@ def FixedWingPlant_(T):
                 prerequisites_of_calc={xc, self._wind_port.ticket()},
             )
             self._DeclareMotionPowerPort()
+            self._kinematics_port = self.DeclareVectorOutputPort(
+                "kinematics",
+                5,
+                self._CalcKinematics,
+                prerequisites_of_calc={xc, self._wind_port.ticket()},
+            )
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other._vehicle, converter=converter)
@@ -395,6 +412,11 @@ def FixedWingPlant_(T):
             vx, vy = _GroundVelocity(heading, wind, self._airspeed)
             output.SetAtIndex(0, vx)
             output.SetAtIndex(1, vy)
+
+        def _CalcKinematics(self, context, output):
+            x, y, heading = self._StateList(context)
+            wind = self._wind_port.Eval(context).tolist()
+            output.SetFromVector([x, y, heading, *_GroundVelocity(heading, wind, self._airspeed)])
 
         def DoCalcTimeDerivatives(self, context, derivatives):
             derivatives.SetFromVector(
@@ -436,17 +458,18 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
         step: h [s], > 0 (the scenario's ``simulation.max_step``; make every other rate an integer
             multiple of it so event times coincide).
 
-    Discrete state, three named groups: ``position`` (x, y) [m], ``heading`` ψ [rad] (not
-    wrapped) and ``ground_velocity`` ṗ = v_a m(ψ) + w [m/s] (:func:`GroundVelocity`), the first
-    two initialised from ``vehicle.initial_position`` and ``vehicle.initial_heading_deg``. The
-    outputs ``position``, ``heading`` and ``ground_velocity`` are these groups (state output
-    ports: no Python call per read). The ground velocity is computed where the wind is read: by
-    the initialization event (``Simulator.Initialize``), by every update (from the new heading)
-    and by :meth:`SetPose` when the ``wind`` input has a value; it is NaN in a context none of
-    these has touched. For the constant wind of a flight it is, bit for bit, GroundVelocity(ψ, w)
-    of the heading in the state (what a callback output would compute at every read); a wind
-    input that changes between steps reaches it at the next update (so, unlike
-    :class:`FixedWingPlant`'s, it is not direct feedthrough of ``wind``).
+    Discrete state, one group: ``kinematics`` (x, y, ψ, ṗ_x, ṗ_y) [m, m, rad, m/s, m/s]
+    (:data:`AircraftKinematics`; ψ not wrapped, ṗ = v_a m(ψ) + w, :func:`GroundVelocity`), the
+    pose initialised from ``vehicle.initial_position`` and ``vehicle.initial_heading_deg``. The
+    ``kinematics`` output is this group (a state output port: no Python call per read, one read
+    per step by the guidance); ``position``, ``heading`` and ``ground_velocity`` are its parts.
+    The ground velocity is computed where the wind is read: by the initialization event
+    (``Simulator.Initialize``), by every update (from the new heading) and by :meth:`SetPose`
+    when the ``wind`` input has a value; it is NaN in a context none of these has touched. For
+    the constant wind of a flight it is, bit for bit, GroundVelocity(ψ, w) of the heading in the
+    state (what a callback output would compute at every read); a wind input that changes
+    between steps reaches it at the next update (so, unlike :class:`FixedWingPlant`'s, it is not
+    direct feedthrough of ``wind``).
 
     Ports and units as :class:`FixedWingPlant`; ``motion_power`` (direct feedthrough of the
     command) is the power of the rate applied over the step that starts now, which a sensor
@@ -463,6 +486,7 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
         - heading
         - ground_velocity
         - motion_power
+        - kinematics
     """
 
     def __init__(self, vehicle: VehicleParams, *, step: float):
@@ -472,19 +496,24 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
             raise ValueError(f"FixedWingArcPlant: step must be > 0 s, got {step!r}")
         vehicle = copy.deepcopy(vehicle)
         self._step = float(step)
-        pose = self._InitialState(vehicle)
-        self._position_index = self.DeclareDiscreteState(pose[:2])
-        self._heading_index = self.DeclareDiscreteState(pose[2:])
-        self._ground_velocity_index = self.DeclareDiscreteState(np.full(2, np.nan))
+        kinematics = np.full(5, np.nan)
+        kinematics[:3] = self._InitialState(vehicle)
+        self._kinematics_index = self.DeclareDiscreteState(kinematics)
         self.DeclareInitializationDiscreteUpdateEvent(self._Initialize)
         self.DeclarePeriodicDiscreteUpdateEvent(self._step, 0.0, self._Update)
         self._DeclareInputs(vehicle)
-        self._position_port = self.DeclareStateOutputPort("position", self._position_index)
-        self._heading_port = self.DeclareStateOutputPort("heading", self._heading_index)
-        self._ground_velocity_port = self.DeclareStateOutputPort(
-            "ground_velocity", self._ground_velocity_index
+        state = {self.discrete_state_ticket(self._kinematics_index)}
+        self._position_port = self.DeclareVectorOutputPort(
+            "position", 2, self._CalcPosition, prerequisites_of_calc=state
+        )
+        self._heading_port = self.DeclareVectorOutputPort(
+            "heading", 1, self._CalcHeading, prerequisites_of_calc=state
+        )
+        self._ground_velocity_port = self.DeclareVectorOutputPort(
+            "ground_velocity", 2, self._CalcGroundVelocity, prerequisites_of_calc=state
         )
         self._DeclareMotionPowerPort()
+        self._kinematics_port = self.DeclareStateOutputPort("kinematics", self._kinematics_index)
 
     def time_step(self) -> float:
         """h [s]."""
@@ -494,38 +523,48 @@ class FixedWingArcPlant(_FixedWingPorts, LeafSystem):
         """Sets (x, y) [m] and ψ [rad] in ``context``, and the ground velocity from them if the
         ``wind`` input has a value (NaN otherwise, until the next update)."""
         pose = self._PoseVector(position, heading)
-        state = context.get_mutable_discrete_state()
-        state.set_value(self._position_index, pose[:2])
-        state.set_value(self._heading_index, pose[2:])
         wind = (
             self._wind_port.Eval(context).tolist()
             if self._wind_port.HasValue(context)
             else [math.nan, math.nan]
         )
-        state.set_value(
-            self._ground_velocity_index, _GroundVelocity(float(pose[2]), wind, self._airspeed)
-        )
+        kinematics = [*pose.tolist(), *_GroundVelocity(float(pose[2]), wind, self._airspeed)]
+        context.get_mutable_discrete_state().set_value(self._kinematics_index, kinematics)
 
     # The update handlers read the state from ``discrete_state``: Drake fills it with the
-    # context's discrete state before calling them. One numpy view per group, read and written
-    # in place.
+    # context's discrete state before calling them. One numpy view, read and written in place.
 
     def _Initialize(self, context, discrete_state):
-        heading = discrete_state.get_mutable_value(self._heading_index).item()
-        velocity = discrete_state.get_mutable_value(self._ground_velocity_index)
+        k = discrete_state.get_mutable_value(self._kinematics_index)
         wind = self._wind_port.Eval(context).tolist()
-        velocity[0], velocity[1] = _GroundVelocity(heading, wind, self._airspeed)
+        k[3], k[4] = _GroundVelocity(k.item(2), wind, self._airspeed)
 
     def _Update(self, context, discrete_state):
-        position = discrete_state.get_mutable_value(self._position_index)
-        heading = discrete_state.get_mutable_value(self._heading_index)
-        x, y = position.tolist()
+        k = discrete_state.get_mutable_value(self._kinematics_index)
+        x, y, psi = k.tolist()[:3]
         wind = self._wind_port.Eval(context).tolist()
         x, y, psi = ArcStep(
-            (x, y, heading.item()), self._AppliedRate(context), wind, self._airspeed, self._step
+            (x, y, psi), self._AppliedRate(context), wind, self._airspeed, self._step
         )
-        position[0] = x
-        position[1] = y
-        heading[0] = psi
-        velocity = discrete_state.get_mutable_value(self._ground_velocity_index)
-        velocity[0], velocity[1] = _GroundVelocity(psi, wind, self._airspeed)
+        vx, vy = _GroundVelocity(psi, wind, self._airspeed)
+        k[0] = x
+        k[1] = y
+        k[2] = psi
+        k[3] = vx
+        k[4] = vy
+
+    def _Kinematics(self, context) -> list:
+        return context.get_discrete_state(self._kinematics_index).get_value().tolist()
+
+    def _CalcPosition(self, context, output):
+        x, y = self._Kinematics(context)[:2]
+        output.SetAtIndex(0, x)
+        output.SetAtIndex(1, y)
+
+    def _CalcHeading(self, context, output):
+        output.SetAtIndex(0, self._Kinematics(context)[2])
+
+    def _CalcGroundVelocity(self, context, output):
+        vx, vy = self._Kinematics(context)[3:]
+        output.SetAtIndex(0, vx)
+        output.SetAtIndex(1, vy)

@@ -196,21 +196,20 @@ def test_constructor_errors():
 
 def test_ports_and_output_matches_pure_function():
     sys = VectorFieldGuidance(GuidanceParams(), airspeed=VA, max_heading_rate=RMAX)
-    sizes = {"position": 2, "ground_velocity": 2, "heading": 1, "path": 6}
-    assert sys.num_input_ports() == 4 and sys.num_output_ports() == 1
+    sizes = {"kinematics": 5, "path": 6}
+    assert sys.num_input_ports() == 2 and sys.num_output_ports() == 1
     for name, size in sizes.items():
         assert sys.GetInputPort(name).size() == size
     assert sys.GetOutputPort("heading_rate_command").size() == 1
     assert sys.get_path_input_port().get_name() == "path"
+    assert sys.get_kinematics_input_port().get_name() == "kinematics"
     assert sys.get_heading_rate_command_output_port().get_name() == "heading_rate_command"
     ctx = sys.CreateDefaultContext()
     rng = np.random.default_rng(11)
     d = Circle([3.0, -7.0], 62.0, s=-1.0, k_e=0.03).descriptor()
     for _ in range(10):
         p, v, psi = rng.uniform(-150, 150, 2), rng.uniform(-20, 20, 2), rng.uniform(-7, 7)
-        sys.GetInputPort("position").FixValue(ctx, p)
-        sys.GetInputPort("ground_velocity").FixValue(ctx, v)
-        sys.GetInputPort("heading").FixValue(ctx, [psi])
+        sys.GetInputPort("kinematics").FixValue(ctx, [*p, psi, *v])
         sys.GetInputPort("path").FixValue(ctx, d)
         u = sys.GetOutputPort("heading_rate_command").Eval(ctx)[0]
         assert u == HeadingRateCommand(p, v, psi, d, VA, KD, RMAX)
@@ -224,9 +223,8 @@ def test_guidance_keeps_its_own_copy_of_the_gains():
     d = Line([0.0, 0.0], [1.0, 0.0], s=1.0, k_e=KE).descriptor()
     psi = -math.pi / 2 + 0.5
     v = VA * np.array([math.cos(psi), math.sin(psi)])
-    for name, value in (("position", [0.0, 0.0]), ("ground_velocity", v), ("path", d)):
-        sys.GetInputPort(name).FixValue(ctx, value)
-    sys.GetInputPort("heading").FixValue(ctx, [psi])
+    sys.GetInputPort("kinematics").FixValue(ctx, [0.0, 0.0, psi, *v])
+    sys.GetInputPort("path").FixValue(ctx, d)
     u = sys.GetOutputPort("heading_rate_command").Eval(ctx)[0]
     assert u == HeadingRateCommand([0.0, 0.0], v, psi, d, VA, 1.0, RMAX)
 
@@ -322,8 +320,7 @@ def _Diagram(path, wind, x0, arc_step=None):
     w = builder.AddSystem(ConstantVectorSource(np.asarray(wind, dtype=float)))
     p = builder.AddSystem(ConstantVectorSource(path.descriptor()))
     builder.Connect(w.get_output_port(), plant.GetInputPort("wind"))
-    for name in ("position", "ground_velocity", "heading"):
-        builder.Connect(plant.GetOutputPort(name), guidance.GetInputPort(name))
+    builder.Connect(plant.GetOutputPort("kinematics"), guidance.GetInputPort("kinematics"))
     builder.Connect(p.get_output_port(), guidance.GetInputPort("path"))
     builder.Connect(
         guidance.GetOutputPort("heading_rate_command"), plant.GetInputPort("heading_rate_command")

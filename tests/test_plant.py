@@ -163,18 +163,23 @@ def _Plants(vehicle):
 
 
 def _State(plant, context):
-    """(x, y, ψ) from the continuous state, or from the exact-arc plant's position and heading
-    groups."""
+    """(x, y, ψ) from the continuous state, or from the exact-arc plant's kinematics group."""
     if plant.num_continuous_states():
         return context.get_continuous_state_vector().CopyToVector()
-    return np.concatenate([context.get_discrete_state(i).value() for i in (0, 1)])
+    return context.get_discrete_state(0).value()[:3].copy()
 
 
 @pytest.mark.parametrize("index", [0, 1], ids=["continuous", "exact_arc"])
 def test_ports_and_feedthrough(index):
     plant = _Plants(VehicleParams())[index]
     inputs = {"heading_rate_command": 1, "wind": 2}
-    outputs = {"position": 2, "heading": 1, "ground_velocity": 2, "motion_power": 1}
+    outputs = {
+        "position": 2,
+        "heading": 1,
+        "ground_velocity": 2,
+        "motion_power": 1,
+        "kinematics": 5,
+    }
     assert plant.num_input_ports() == len(inputs)
     assert plant.num_output_ports() == len(outputs)
     for name, size in inputs.items():
@@ -184,6 +189,7 @@ def test_ports_and_feedthrough(index):
     assert plant.get_heading_rate_command_input_port().get_name() == "heading_rate_command"
     assert plant.get_wind_input_port().get_name() == "wind"
     assert plant.get_motion_power_output_port().get_name() == "motion_power"
+    assert plant.get_kinematics_output_port().get_name() == "kinematics"
     u = plant.GetInputPort("heading_rate_command").get_index()
     w = plant.GetInputPort("wind").get_index()
 
@@ -191,18 +197,37 @@ def test_ports_and_feedthrough(index):
         return plant.HasDirectFeedthrough(i, plant.GetOutputPort(name).get_index())
 
     # No dependency of position / heading / ground velocity on the command: no algebraic loop.
-    for name in ("position", "heading", "ground_velocity"):
+    for name in ("position", "heading", "ground_velocity", "kinematics"):
         assert not feed(u, name)
     # The exact-arc plant keeps the ground velocity in its state (the wind read at its updates).
     assert feed(w, "ground_velocity") == (index == 0)
+    assert feed(w, "kinematics") == (index == 0)
     assert not feed(w, "position") and not feed(w, "heading")
     assert feed(u, "motion_power") and not feed(w, "motion_power")
     if index == 0:
         assert plant.num_continuous_states() == 3 and plant.num_discrete_state_groups() == 0
     else:
-        assert plant.num_continuous_states() == 0 and plant.num_discrete_state_groups() == 3
+        assert plant.num_continuous_states() == 0 and plant.num_discrete_state_groups() == 1
     assert plant.max_heading_rate() == pytest.approx(9.81 / 15.0)
     assert plant.airspeed() == 15.0
+
+
+@pytest.mark.parametrize("index", [0, 1], ids=["continuous", "exact_arc"])
+def test_kinematics_is_position_heading_and_ground_velocity(index):
+    plant = _Plants(VehicleParams(initial_position=[3.0, -4.0], initial_heading_deg=30.0))[index]
+    ctx = plant.CreateDefaultContext()
+    plant.GetInputPort("wind").FixValue(ctx, [2.0, -1.0])
+    plant.GetInputPort("heading_rate_command").FixValue(ctx, [0.2])
+    plant.SetPose(ctx, [12.0, 7.5], 2.5)
+    parts = [plant.GetOutputPort(n).Eval(ctx) for n in ("position", "heading", "ground_velocity")]
+    kinematics = plant.GetOutputPort("kinematics").Eval(ctx)
+    assert np.array_equal(kinematics, np.concatenate(parts))
+    np.testing.assert_allclose(
+        kinematics,
+        [12.0, 7.5, 2.5, 15.0 * math.cos(2.5) + 2.0, 15.0 * math.sin(2.5) - 1.0],
+        rtol=0,
+        atol=1e-12,
+    )
 
 
 @pytest.mark.parametrize("index", [0, 1], ids=["continuous", "exact_arc"])
@@ -265,8 +290,8 @@ def test_outputs_equal_the_pure_functions(index):
         else:
             update = plant.EvalUniquePeriodicDiscreteUpdate(ctx)
             step = ArcStep(x, SaturatedHeadingRate(u, rmax), w, VA, H)
-            np.testing.assert_array_equal(np.concatenate([update.value(0), update.value(1)]), step)
-            np.testing.assert_array_equal(update.value(2), GroundVelocity(step[2], w, VA))
+            np.testing.assert_array_equal(update.value(0)[:3], step)
+            np.testing.assert_array_equal(update.value(0)[3:], GroundVelocity(step[2], w, VA))
         np.testing.assert_array_equal(plant.GetOutputPort("position").Eval(ctx), x[:2])
         assert plant.GetOutputPort("heading").Eval(ctx)[0] == x[2]  # not wrapped
         np.testing.assert_array_equal(
