@@ -293,7 +293,7 @@ class StageSequencer(LeafSystem):
         """(stage, survey length [m] after it at the reference c1) for the ``source`` state: pure
         functions of the plan, memoised for the last source seen (it changes at stage switches
         only)."""
-        key = tuple(source)
+        key = tuple(source.tolist())  # Python floats: a cheap comparison at every update
         if key != self._memo_key:
             after = int(key[0])
             if after < 0:
