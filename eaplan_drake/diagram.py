@@ -314,7 +314,10 @@ def AddSignalLoggers(builder: DiagramBuilder, systems: dict, log_period: float) 
 def LoggedSignals(diagram: Diagram, context) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """(t, signals) logged by the ``log`` sink of a diagram from :func:`MakeEaplanDiagram`:
     the sample times [s], shape (n,), and each of :data:`LOGGED_SIGNALS` by name, shape
-    (n, size of the signal), in its own units. ``context`` is the diagram's root context."""
+    (n, size of the signal), in its own units. ``context`` is the diagram's root context.
+    ValueError for a diagram built without loggers (``log_period`` = 0)."""
+    if not diagram.HasSubsystemNamed("log"):
+        raise ValueError("LoggedSignals: the diagram has no 'log' sink (built with log_period = 0)")
     log = diagram.GetSubsystemByName("log").FindLog(context)
     data = np.array(log.data())
     mux = diagram.GetSubsystemByName("log_mux")

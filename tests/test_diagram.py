@@ -57,6 +57,9 @@ def test_logged_signals_split_the_one_sink_into_the_exported_ports():
         now = diagram.GetOutputPort(name).Eval(ctx)
         assert values.shape == (7, now.size), name
         np.testing.assert_array_equal(values[-1], now, err_msg=name)
+    unlogged = MakeEaplanDiagram(Scenario(), log_period=0.0)
+    with pytest.raises(ValueError, match="no 'log' sink"):
+        LoggedSignals(unlogged, unlogged.CreateDefaultContext())
 
 
 def test_the_estimator_behind_an_averaging_sensor_uses_r_over_n():
