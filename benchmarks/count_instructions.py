@@ -1,0 +1,117 @@
+"""Instructions per simulation step of a flight, counted by valgrind's callgrind: a speed measure
+that does not depend on the machine's load (a busy 2-core machine moves CPU times by ±20 %; the
+count moves by well under 1 %).
+
+    python3 benchmarks/count_instructions.py [--baseline-tree DIR] [--window 10 40] [FLIGHT ...]
+
+Each FLIGHT (a shipped scenario name, default ``plan_i plan_ii``) is built with
+``MakeEaplanDiagram`` (loggers at the scenario's ``log_period``, integrator as ``Simulate`` sets
+it) and advanced to t0 and, in a second process, to t1 (``--window t0 t1`` [s], default 10 40):
+the difference of the two counts, divided by the base ticks in between ((t1 − t0) /
+``simulation.max_step``), is the loop's cost per step without the start-up (imports, table and
+plan loading). ``--baseline-tree DIR`` counts the package found in DIR too (e.g. a checkout of
+9f6bcff, issue 14's "today") and prints the ratio. Needs ``valgrind`` on the PATH (Debian package
+``valgrind``); without it the script says so and exits with status 2. A window of 30 s costs about
+a minute per flight and tree (callgrind runs ≈ 50× slower than the flight).
+
+The count is a proxy, not the speed: on this project's flights the measured CPU-time speed-up has
+been 0.85–0.95 of the instruction ratio (cache misses and branch mispredictions are not counted).
+"""
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+CHILD = """
+import sys
+from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
+from eaplan_drake.diagram import MakeEaplanDiagram
+from eaplan_drake.simulation import LoadNamedScenario
+scenario = LoadNamedScenario(sys.argv[1])
+simulator = Simulator(MakeEaplanDiagram(scenario))
+ResetIntegratorFromFlags(
+    simulator, scenario.simulation.integrator, scenario.simulation.max_step
+)
+simulator.Initialize()
+simulator.AdvanceTo(float(sys.argv[2]))
+print(scenario.simulation.max_step)
+"""
+
+
+def Count(tree: Path, flight: str, until: float) -> tuple[int, float]:
+    """(instructions of a process that flies ``flight`` to ``until`` [s], the base step [s])."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "callgrind.out"
+        result = subprocess.run(
+            [
+                "valgrind",
+                "--tool=callgrind",
+                f"--callgrind-out-file={out}",
+                sys.executable,
+                "-c",
+                CHILD,
+                flight,
+                str(until),
+            ],
+            env=env,
+            cwd=tmp,
+            capture_output=True,
+            text=True,
+        )
+    if result.returncode != 0:
+        raise SystemExit(f"{flight} with {tree}: the flight failed:\n{result.stderr[-2000:]}")
+    match = re.search(r"Collected : ([\d,]+)", result.stderr)
+    if match is None:
+        raise SystemExit(f"{flight} with {tree}: no callgrind count in valgrind's output")
+    return int(match.group(1).replace(",", "")), float(result.stdout.split()[-1])
+
+
+def PerStep(tree: Path, flight: str, window: tuple[float, float]) -> float:
+    """Instructions per base step between the window's two times."""
+    t0, t1 = window
+    start, step = Count(tree, flight, t0)
+    end, _ = Count(tree, flight, t1)
+    return (end - start) / ((t1 - t0) / step)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("flights", nargs="*", default=["plan_i", "plan_ii"], metavar="FLIGHT")
+    parser.add_argument("--baseline-tree", type=Path, default=None)
+    parser.add_argument("--window", type=float, nargs=2, default=(10.0, 40.0), metavar=("T0", "T1"))
+    args = parser.parse_args(argv)
+    if shutil.which("valgrind") is None:
+        print("count_instructions: valgrind is not on the PATH (Debian package valgrind)")
+        return 2
+    t0, t1 = args.window
+    if not (0.0 < t0 < t1):
+        print(f"--window: need 0 < T0 < T1 [s], got {t0:g} {t1:g}")
+        return 2
+    this = HERE.parent
+    trees = [("this", this)] + ([("baseline", args.baseline_tree)] if args.baseline_tree else [])
+    print(f"instructions per base step, flown from {t0:g} s to {t1:g} s (callgrind)\n")
+    print(
+        "| flight | "
+        + " | ".join(name for name, _ in trees)
+        + (" | ratio |" if len(trees) > 1 else " |")
+    )
+    print("| --- " * (len(trees) + 1 + (len(trees) > 1)) + "|")
+    for flight in args.flights:
+        counts = [PerStep(tree, flight, (t0, t1)) for _, tree in trees]
+        cells = [f"{c / 1e3:.0f}k" for c in counts]
+        if len(counts) > 1:
+            cells.append(f"{counts[1] / counts[0]:.2f}x")
+        print(f"| {flight} | " + " | ".join(cells) + " |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
