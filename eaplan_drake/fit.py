@@ -90,6 +90,7 @@ __all__ = [
     "LEVEL_RATIOS",
     "LikelihoodScaledNoise",
     "NOISE_CRITERIA",
+    "NOISE_CRITERIA_TEXT",
     "ModelName",
     "MultiStepError",
     "ORDERS",
