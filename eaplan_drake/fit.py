@@ -552,9 +552,10 @@ class PowerModelFit:
     """The chosen model in words (:func:`ModelName`): "r=4+AR(1)", "level", "level+AR(1)", …;
     the two levels fitted for the horizons have r = 0 like the ordinary r = 0 model."""
     noise_criterion: str = "likelihood"
-    """How the chosen noise was fitted (:data:`NOISE_CRITERIA`): "likelihood" (innovation
-    likelihood) or "horizons" (multi-step error; for the two levels of :func:`FitLevelNoise`
-    their q_0, the rest by likelihood)."""
+    """How the chosen noise was fitted, a key of :data:`NOISE_CRITERIA_TEXT`: "likelihood"
+    (innovation likelihood), "horizons" (multi-step error, :func:`FitNoise`) or "level" (one of
+    the two levels of :func:`FitLevelNoise`: q_0 by the multi-step error, the rest by
+    likelihood)."""
 
     def ScenarioFragment(self, estimator_rate: float = 100.0) -> str:
         """YAML for ``simulate`` with the fitted model (energy_model and estimator keys).
@@ -647,7 +648,9 @@ the multi-step error (``criterion="horizons"``)."""
 NOISE_CRITERIA_TEXT = {
     "likelihood": "innovation likelihood",
     "horizons": "multi-step error",
+    "level": "likelihood, q_0 by multi-step error",
 }
+""":attr:`PowerModelFit.noise_criterion` in words (printed by ``fit``, in ``fit.yaml``'s header)."""
 
 LEVEL_RATIOS = tuple(10.0 ** (0.25 * i) for i in range(-32, 5))
 """Candidate q_0/R [-] of :func:`FitLevelNoise` (10⁻⁸ … 10, four per decade)."""
@@ -797,7 +800,7 @@ def FitPowerModel(
     ll = InnovationLogLikelihood(z, time_step, 0, nominal, noise)
     name = ModelName(0, noise, horizon)
     return PowerModelFit(
-        0, nominal, float(time_step), noise, ll, float(z.mean()), candidates, name, "horizons"
+        0, nominal, float(time_step), noise, ll, float(z.mean()), candidates, name, "level"
     )
 
 

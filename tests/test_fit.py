@@ -14,6 +14,7 @@ from eaplan_drake.estimator import KalmanPredict, KalmanUpdate
 from eaplan_drake.fit import (
     HORIZONS_SUFFIX,
     NOISE_CRITERIA,
+    NOISE_CRITERIA_TEXT,
     BaselinePrediction,
     FilterPowerSeries,
     FitLevelNoise,
@@ -187,9 +188,13 @@ def test_fit_power_model_tries_the_noise_for_the_horizons():
     fit = FitPowerModel(z[: z.size // 2], 0.5, T, orders=(2,), max_evaluations=45)
     names = [c[3] for c in fit.candidates]
     assert sum(name.endswith(HORIZONS_SUFFIX) for name in names) == 1
-    assert fit.noise_criterion in NOISE_CRITERIA
-    text = {"likelihood": "innovation likelihood", "horizons": "multi-step error"}
+    text = {
+        "likelihood": "innovation likelihood",
+        "horizons": "multi-step error",
+        "level": "likelihood, q_0 by multi-step error",
+    }
     assert f"noise by {text[fit.noise_criterion]})" in fit.ScenarioFragment()
+    assert set(NOISE_CRITERIA) < set(NOISE_CRITERIA_TEXT) == set(text)
 
 
 def test_baselines_on_analytic_signals():
@@ -432,6 +437,7 @@ def test_fit_chooses_a_level_without_harmonics_for_a_random_walk():
     z = 40.0 + np.cumsum(rng.normal(0.0, 0.05, n)) + rng.normal(0.0, 0.5, n)
     fit = FitPowerModel(z[: n // 2], 1.0, 40.0, orders=(0, 1), max_evaluations=60)
     assert fit.order == 0 and {c[0] for c in fit.candidates} == {0, 1}
+    assert fit.model_name.startswith("level") == (fit.noise_criterion == "level")
     scores = ScorePredictions(z, 1.0, 40.0, fit)
     for h in ("T/4", "T/2", "T"):
         assert scores["model"][h][0] <= 1.02 * scores["moving average"][h][0], (h, scores)
