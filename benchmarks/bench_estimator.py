@@ -1,6 +1,8 @@
 """Prediction error of the fitted energy model against three baselines (issue 11 targets).
 
-For every signal: fit order and noise on the first half (:func:`eaplan_drake.fit.FitPowerLog`),
+For every signal: fit order and noise on the first half (:func:`eaplan_drake.fit.FitPowerLog`;
+each signal's line says whether its noise came from the innovation likelihood or, for the
+horizons, from the multi-step error),
 score RMSE / MAE [W] at 1 step, T/4, T/2 and T ahead from origins in the second half, against
 last value, one-period moving average and seasonal naive (value one period before the target).
 
@@ -35,7 +37,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from eaplan_drake.energy_model import EstimatePeriodWithConfidence  # noqa: E402
-from eaplan_drake.fit import BASELINES, ORDERS, FitPowerLog, SyntheticPower  # noqa: E402
+from eaplan_drake.fit import (  # noqa: E402
+    BASELINES,
+    NOISE_CRITERIA_TEXT,
+    ORDERS,
+    FitPowerLog,
+    SyntheticPower,
+)
 from eaplan_drake.powerlog import (  # noqa: E402
     REFERENCE_ENV,
     ReadPeriodLog,
@@ -180,7 +188,8 @@ def main(argv=None) -> int:
             f"{result.power.size} samples at {fit.time_step:.3g} s, T = {fit.period:.2f} s "
             f"({result.period_source})"
             + (f" ({note})" if note else "")
-            + f"; fitted {fit.model_name} (r = {fit.order}), "
+            + f"; fitted {fit.model_name} (r = {fit.order}; noise by "
+            f"{NOISE_CRITERIA_TEXT[fit.noise_criterion]}), "
             f"τ = {n.aperiodic_time_constant:.3g} s, "
             f"σ_d = {math.sqrt(0.5 * n.aperiodic_noise * n.aperiodic_time_constant):.3g} W, "
             f"σ_v = {math.sqrt(n.measurement_noise):.3g} W, level noise q_0 = "

@@ -249,7 +249,7 @@ def _StudyReport(args) -> int:
 
 
 def _Fit(args) -> int:
-    from eaplan_drake.fit import FitPowerLog, FormatScores, PlotLogFit
+    from eaplan_drake.fit import NOISE_CRITERIA_TEXT, FitPowerLog, FormatScores, PlotLogFit
     from eaplan_drake.powerlog import PowerLogError, ReadPeriodLog, ReadPowerLog
     from eaplan_drake.simulation import _AtomicWrite
 
@@ -288,7 +288,10 @@ def _Fit(args) -> int:
         f"samples         {result.power.size} at {fit.time_step:.3g} s ({result.times[-1]:.0f} s)"
     )
     print(f"period          {fit.period:.2f} s ({result.period_source})")
-    print(f"model           {fit.model_name} (order r = {fit.order})")
+    print(
+        f"model           {fit.model_name} (order r = {fit.order}; "
+        f"noise by {NOISE_CRITERIA_TEXT[fit.noise_criterion]})"
+    )
     cells = [f"{name} (q_0 {lv:.2g}): {v:.3g}" for _, lv, v, name in fit.candidates]
     print("candidates      held-out score [W²] (q_0 [W²/step]):")
     print(textwrap.fill(", ".join(cells), 100, initial_indent=" " * 16, subsequent_indent=" " * 16))

@@ -34,6 +34,17 @@ fitted for the horizons (:func:`FitLevelNoise`: the local level, y = α0 a rando
 r = 0 model with its q_0 re-chosen), whose q_0 is chosen by the multi-step error on the first
 70 % itself. The chosen structure's noise is then refitted on the whole training record.
 
+**Noise for the horizons.** The likelihood scores one-step predictions only; the planner uses
+the model up to a period ahead. So the chosen structure (order, AR(1) load, walk) gets a second
+noise fit that minimises its multi-step error on the first 70 % instead (:func:`FitNoise` with
+``criterion="horizons"``: Σ_H log MSE_H over the four horizons, :func:`MultiStepError` with
+``relative=True``, so each horizon's relative error counts equally and the one-step error is
+not traded away for the longer ones; Nelder–Mead from the likelihood optimum; the predictions
+depend on the noise ratios only, so their common scale is then the likelihood's,
+:func:`LikelihoodScaledNoise`). It is one more candidate of the held-out criterion; when it
+wins, the whole-record refit uses that criterion too (:attr:`PowerModelFit.noise_criterion`).
+The model and the estimator are the same; only the noise values differ.
+
 **A period that changes.** Every function taking ``period`` also takes T_k [s] per sample (the
 period in force, :func:`PeriodInForce` of a period log): the filter is then the exact
 time-varying one, re-discretised per T_k as the estimator does (:func:`FilterPowerSeries`), the
@@ -72,10 +83,14 @@ __all__ = [
     "FormatScores",
     "LogFit",
     "PlotLogFit",
+    "HORIZONS_SUFFIX",
     "HorizonSteps",
     "InnovationLogLikelihood",
     "FitLevelNoise",
     "LEVEL_RATIOS",
+    "LikelihoodScaledNoise",
+    "NOISE_CRITERIA",
+    "NOISE_CRITERIA_TEXT",
     "ModelName",
     "MultiStepError",
     "ORDERS",
@@ -357,14 +372,21 @@ def FitNoise(
     max_evaluations: int = 120,
     start: NoiseParameters | None = None,
     level: bool | float = True,
+    criterion: str = "likelihood",
 ) -> tuple[NoiseParameters, float]:
-    """(noise, ℓ): the noise maximising the innovation log-likelihood (module docstring).
+    """(noise, ℓ): the noise maximising the innovation log-likelihood (module docstring), or
+    with ``criterion="horizons"`` the noise ratios minimising the multi-step error
+    Σ_H log MSE_H (:func:`MultiStepError` with ``relative=True``; targets from the burn-in plus
+    one period T on), scaled by the likelihood (:func:`LikelihoodScaledNoise`: the point
+    predictions fix only the ratios), ℓ then being the likelihood at that noise.
 
     θ = log10 of (R, q_n, q_0, q_d, τ) (q_d, τ only with ``aperiodic``; q_0 searched when
     ``level`` is True, else fixed: 0 for False, the value for a number); τ in [Δt, 50 T].
     Nelder–Mead from ``start`` (default: R from the lag-one differences, small q's, τ = 10 s).
     ``period``: T [s] or T_k per sample (:func:`PeriodSeries`; the bound uses the nominal T).
     """
+    if criterion not in NOISE_CRITERIA:
+        raise ValueError(f"criterion: one of {', '.join(NOISE_CRITERIA)}, got {criterion!r}")
     z = np.asarray(z, dtype=float).reshape(-1)
     dt = float(time_step)
     var = max(float(np.var(z)), 1e-9)
@@ -379,6 +401,8 @@ def FitNoise(
         q_0 = v.get("q_0", fixed_level)
         return NoiseParameters(v["R"], v["q_n"], q_0, tau, v.get("q_d", 0.0))
 
+    P = max(1, int(round(PeriodSeries(period, z.size)[0] / dt)))
+    first = min(_BurnIn(z.size, P) + P, z.size - 2)  # the horizons' first target
     q0 = {}  # q̂(0) depends on the structure only (with or without d), not on θ
 
     def cost(x):
@@ -387,6 +411,9 @@ def FitNoise(
         noise = unpack(x)
         if aperiodic not in q0:
             q0[aperiodic] = _InitialState(z, dt, noise.Model(order), period)
+        if criterion == "horizons":
+            v = MultiStepError(z, dt, order, period, noise, first, relative=True)
+            return v if math.isfinite(v) else 1e30
         ll = InnovationLogLikelihood(z, dt, order, period, noise, q0[aperiodic])
         return -ll if math.isfinite(ll) else 1e30
 
@@ -408,7 +435,37 @@ def FitNoise(
         step = 0.5
     x0 = [math.log10(max(guess[k], floor)) for k in names]
     x, f = _NelderMead(cost, x0, step, max_evals=max_evaluations)
+    if criterion == "horizons":
+        return LikelihoodScaledNoise(z, dt, order, period, unpack(x), q0.get(aperiodic))
     return unpack(x), -f
+
+
+def LikelihoodScaledNoise(
+    z, time_step: float, order: int, period, noise: NoiseParameters, initial_state=None
+) -> tuple[NoiseParameters, float]:
+    """(c·noise, ℓ): every variance of ``noise`` (R, q_n, q_0, q_d; τ kept) times the scale c
+    that maximises the innovation likelihood ℓ, and that ℓ.
+
+    Scaling Q and R by c scales P⁻ and s_k by c and leaves the gains, the estimates and the
+    innovations e_k unchanged, so ℓ(c) = −½ Σ (log 2π c s_k + e_k²/(c s_k)) is maximised at
+    c = mean(e_k²/s_k) (k ≥ k_0). Point predictions depend on the noise ratios only; this sets
+    the scale (the filter's covariance, the simulated sensor's σ) from the data.
+    """
+    _, e, s = FilterPowerSeries(z, time_step, order, period, noise, initial_state)
+    nominal, _ = PeriodSeries(period, e.size)
+    k0 = _BurnIn(e.size, int(round(nominal / time_step)))
+    s = np.broadcast_to(s, e.shape)
+    c = float(np.mean(e[k0:] ** 2 / s[k0:]))
+    if not (math.isfinite(c) and c > 0.0):
+        return noise, InnovationLogLikelihood(z, time_step, order, period, noise, initial_state)
+    scaled = dc.replace(
+        noise,
+        measurement_noise=c * noise.measurement_noise,
+        process_noise=c * noise.process_noise,
+        mean_process_noise=c * noise.mean_process_noise,
+        aperiodic_noise=c * noise.aperiodic_noise,
+    )
+    return scaled, InnovationLogLikelihood(z, time_step, order, period, scaled, initial_state)
 
 
 def HorizonSteps(period: float, time_step: float) -> tuple[int, int, int, int]:
@@ -487,11 +544,18 @@ class PowerModelFit:
     """Mean of the training record [W]."""
     candidates: list
     """(order r, level intensity q_0 [W²/step], held-out score [W²], name) of every candidate
-    tried, in order: the orders, the best order without q_0, then the levels fitted for the
-    horizons (local level, then r = 0 with its q_0 re-chosen); name as :attr:`model_name`."""
+    tried, in order: the orders, the best order without q_0, the best structure with its noise
+    fitted for the horizons (its name ends in :data:`HORIZONS_SUFFIX`), then the levels fitted
+    for the horizons (local level, then r = 0 with its q_0 re-chosen); name as
+    :attr:`model_name`."""
     model_name: str = ""
     """The chosen model in words (:func:`ModelName`): "r=4+AR(1)", "level", "level+AR(1)", …;
     the two levels fitted for the horizons have r = 0 like the ordinary r = 0 model."""
+    noise_criterion: str = "likelihood"
+    """How the chosen noise was fitted, a key of :data:`NOISE_CRITERIA_TEXT`: "likelihood"
+    (innovation likelihood), "horizons" (multi-step error, :func:`FitNoise`) or "level" (one of
+    the two levels of :func:`FitLevelNoise`: q_0 by the multi-step error, the rest by
+    likelihood)."""
 
     def ScenarioFragment(self, estimator_rate: float = 100.0) -> str:
         """YAML for ``simulate`` with the fitted model (energy_model and estimator keys).
@@ -506,7 +570,9 @@ class PowerModelFit:
         tau = self.noise.aperiodic_time_constant
         name = self.model_name or ModelName(self.order, self.noise)
         lines = [
-            "# fitted by eaplan-drake fit (innovation likelihood; order by held-out error)",
+            "# fitted by eaplan-drake fit (order by held-out error; noise by "
+            + NOISE_CRITERIA_TEXT[self.noise_criterion]
+            + ")",
             f"# model: {name}",
             "sensor:",
             f"  noise_std: {_YamlFloat(math.sqrt(self.noise.measurement_noise))}",
@@ -552,12 +618,16 @@ def _YamlFloat(x: float) -> str:
     return f"{x:.6e}"
 
 
-def MultiStepError(z, time_step: float, order: int, period, noise, first_target: int) -> float:
-    """Σ over H ∈ {1 step, T/4, T/2, T} of the mean squared error [W²] of ŷ_{k+H|k}
+def MultiStepError(
+    z, time_step: float, order: int, period, noise, first_target: int, relative: bool = False
+) -> float:
+    """Σ over H ∈ {1 step, T/4, T/2, T} of the mean squared error MSE_H [W²] of ŷ_{k+H|k}
     (:func:`PredictAhead` after :func:`FilterPowerSeries` over z) for the targets
     k + H ≥ ``first_target`` (every horizon has the same targets; each prediction uses z up to
     its origin k only). The held-out criterion of :func:`FitPowerModel` (targets after the
-    fitting window) and the fitting criterion of :func:`FitLevelNoise`."""
+    fitting window) and the fitting criterion of :func:`FitLevelNoise`. ``relative``: Σ_H
+    log MSE_H instead [-] (scale free: each horizon's relative error counts equally), the
+    criterion of :func:`FitNoise` with ``criterion="horizons"``."""
     z = np.asarray(z, dtype=float).reshape(-1)
     states, _, _ = FilterPowerSeries(z, time_step, order, period, noise)
     total = 0.0
@@ -566,9 +636,21 @@ def MultiStepError(z, time_step: float, order: int, period, noise, first_target:
         if origins.size == 0:
             continue
         pred = PredictAhead(states, order, period, time_step, noise, H)
-        total += _Errors(pred, z, origins, H)[0] ** 2
+        mse = _Errors(pred, z, origins, H)[0] ** 2
+        total += math.log(max(mse, 1e-300)) if relative else mse
     return total
 
+
+HORIZONS_SUFFIX = " (noise for the horizons)"
+"""Appended to a candidate's name in :attr:`PowerModelFit.candidates` when its noise was fitted by
+the multi-step error (``criterion="horizons"``)."""
+
+NOISE_CRITERIA_TEXT = {
+    "likelihood": "innovation likelihood",
+    "horizons": "multi-step error",
+    "level": "likelihood, q_0 by multi-step error",
+}
+""":attr:`PowerModelFit.noise_criterion` in words (printed by ``fit``, in ``fit.yaml``'s header)."""
 
 LEVEL_RATIOS = tuple(10.0 ** (0.25 * i) for i in range(-32, 5))
 """Candidate q_0/R [-] of :func:`FitLevelNoise` (10⁻⁸ … 10, four per decade)."""
@@ -606,6 +688,9 @@ def FitLevelNoise(
     R = max(float(np.mean(e[k0:] ** 2 / s)), 1e-12 * max(float(np.var(z)), 1e-9))
     return NoiseParameters(R, 0.0, best.mean_process_noise * R)
 
+
+NOISE_CRITERIA = ("likelihood", "horizons")
+"""How :func:`FitNoise` fits the noise: innovation likelihood, or multi-step error."""
 
 ORDERS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
 """Candidate Fourier orders of :func:`FitPowerModel` (those with 2r + 1 ≤ samples per period)."""
@@ -673,6 +758,16 @@ def FitPowerModel(
     level = score >= best[2]
     if not level:
         best = (r, 0.0, score, fixed)
+    # The same structure with its noise fitted for the horizons (multi-step error), held out.
+    horizons, _ = FitNoise(
+        z[:split], time_step, r, head, aperiodic, max_evaluations // 3, best[3], level, "horizons"
+    )
+    score = MultiStepError(z, time_step, r, period, horizons, split)
+    name = ModelName(r, horizons) + HORIZONS_SUFFIX
+    candidates.append((r, horizons.mean_process_noise, score, name))
+    criterion = "likelihood"
+    if score < best[2]:
+        best, criterion = (r, horizons.mean_process_noise, score, horizons), "horizons"
     horizon = "none"  # or the level fitted for the horizons that won: "local", "r0"
     if local_level:
         # Levels fitted for the horizons: the local level, and the r = 0 model's q_0 re-chosen.
@@ -685,7 +780,7 @@ def FitPowerModel(
                 best, horizon = (0, walk.mean_process_noise, score, walk), name
     if horizon == "none":
         noise, ll = FitNoise(
-            z, time_step, r, period, aperiodic, max_evaluations // 3, best[3], level=level
+            z, time_step, r, period, aperiodic, max_evaluations // 3, best[3], level, criterion
         )
         return PowerModelFit(
             r,
@@ -696,6 +791,7 @@ def FitPowerModel(
             float(z.mean()),
             candidates,
             ModelName(r, noise),
+            criterion,
         )
     base = None
     if horizon == "r0":
@@ -703,7 +799,9 @@ def FitPowerModel(
     noise = FitLevelNoise(z, time_step, nominal, base)
     ll = InnovationLogLikelihood(z, time_step, 0, nominal, noise)
     name = ModelName(0, noise, horizon)
-    return PowerModelFit(0, nominal, float(time_step), noise, ll, float(z.mean()), candidates, name)
+    return PowerModelFit(
+        0, nominal, float(time_step), noise, ll, float(z.mean()), candidates, name, "level"
+    )
 
 
 def ScorePredictions(z, time_step: float, period, fit: PowerModelFit):
