@@ -156,6 +156,16 @@ class NoiseParameters:
             return AugmentedOrder(int(order), self.aperiodic_time_constant)
         return int(order)
 
+    def Scaled(self, factor: float) -> "NoiseParameters":
+        """Every variance (R, q_n, q_0, q_d) times ``factor`` [-]; τ kept."""
+        return dc.replace(
+            self,
+            measurement_noise=factor * self.measurement_noise,
+            process_noise=factor * self.process_noise,
+            mean_process_noise=factor * self.mean_process_noise,
+            aperiodic_noise=factor * self.aperiodic_noise,
+        )
+
 
 def UniformPowerSeries(times, power, time_step: float | None = None):
     """(t, z) on a uniform grid of step Δt [s] (default: the median spacing) by linear
@@ -458,13 +468,7 @@ def LikelihoodScaledNoise(
     c = float(np.mean(e[k0:] ** 2 / s[k0:]))
     if not (math.isfinite(c) and c > 0.0):
         return noise, InnovationLogLikelihood(z, time_step, order, period, noise, initial_state)
-    scaled = dc.replace(
-        noise,
-        measurement_noise=c * noise.measurement_noise,
-        process_noise=c * noise.process_noise,
-        mean_process_noise=c * noise.mean_process_noise,
-        aperiodic_noise=c * noise.aperiodic_noise,
-    )
+    scaled = noise.Scaled(c)
     return scaled, InnovationLogLikelihood(z, time_step, order, period, scaled, initial_state)
 
 
