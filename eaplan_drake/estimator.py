@@ -35,13 +35,7 @@ import copy
 import math
 
 import numpy as np
-from pydrake.systems.framework import (
-    BasicVector,
-    Context,
-    DiscreteValues,
-    EventStatus,
-    LeafSystem,
-)
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from eaplan_drake.energy_model import (
     InputMemory,
@@ -51,7 +45,8 @@ from eaplan_drake.energy_model import (
     StateSize,
     TransitionMatrices,
 )
-from eaplan_drake.params import EstimatorParams, TicksPerPeriod
+from eaplan_drake.params import EstimatorParams
+from eaplan_drake.ticks import DeclareTickedDiscreteUpdateEvent
 
 __all__ = [
     "EnergyEstimator",
@@ -60,9 +55,6 @@ __all__ = [
     "KalmanStep",
     "KalmanUpdate",
 ]
-
-_DID_NOTHING = EventStatus.DidNothing()
-"""The status of a base tick that is not this system's (one object, not one per call)."""
 
 
 def KalmanPredict(q, P, Ad, Q, out=None):
@@ -136,9 +128,9 @@ class EnergyEstimator(LeafSystem):
     """Kalman filter estimating the energy-model state q̂ [W] from the power sensor.
 
     Runs at ``estimator.rate`` (h = 1/rate; with ``time_step``, the loop's base tick, dividing h
-    n ≥ 2 times (:func:`~eaplan_drake.params.TicksPerPeriod`) the event is declared at the tick
-    and acts every n-th, so its times coincide bit for bit with the loop's) with Drake's discrete
-    convention: the state at t_k
+    n ≥ 2 times the event is declared at the tick and acts every n-th, so its times coincide bit
+    for bit with the loop's: :func:`~eaplan_drake.ticks.DeclareTickedDiscreteUpdateEvent`) with
+    Drake's discrete convention: the state at t_k
     holds the a priori estimate q̂⁻(t_k), P⁻(t_k) (all samples before t_k), and the update at
     t_k applies one :func:`KalmanStep` with z_k = ``measured_power`` [W] (non-finite: prediction
     only), Δg_k = change of ``computation_power`` [W] since the previous step (known input through
@@ -225,12 +217,7 @@ class EnergyEstimator(LeafSystem):
         self._computation_power_port = self.DeclareVectorInputPort("computation_power", 1)
         self._period_port = self.DeclareVectorInputPort("period", 1)
         self.DeclareInitializationDiscreteUpdateEvent(self._Initialize)
-        self._ticks = TicksPerPeriod(self._h, time_step)
-        if self._ticks > 1:  # on the base tick, every n-th (times coincide bit for bit)
-            self._tick = float(time_step)
-            self.DeclarePeriodicDiscreteUpdateEvent(self._tick, 0.0, self._Update)
-        else:
-            self.DeclarePeriodicDiscreteUpdateEvent(self._h, 0.0, self._Update)
+        DeclareTickedDiscreteUpdateEvent(self, self._h, time_step, self._Update)
         q_ticket = {self.discrete_state_ticket(self._q_index)}
         P_ticket = {self.discrete_state_ticket(self._P_index)}
         self._energy_coefficients_port = self.DeclareStateOutputPort(
@@ -281,8 +268,6 @@ class EnergyEstimator(LeafSystem):
             memory.period = T
 
     def _Update(self, context: Context, discrete_state: DiscreteValues):
-        if self._ticks > 1 and round(context.get_time() / self._tick) % self._ticks:
-            return _DID_NOTHING
         # Drake fills discrete_state with the context's current values before this handler
         # (LeafSystem::DispatchDiscreteVariableUpdateHandler): read and write it in place.
         q = discrete_state.get_mutable_value(self._q_index)

@@ -35,9 +35,10 @@ import copy
 import math
 
 import numpy as np
-from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
-from eaplan_drake.params import IntegerMultiple, SensorParams, TicksPerPeriod
+from eaplan_drake.params import IntegerMultiple, SensorParams
+from eaplan_drake.ticks import DeclareTickedDiscreteUpdateEvent
 
 __all__ = [
     "BLOCK_SIZE",
@@ -51,9 +52,6 @@ __all__ = [
     "PowerSensor",
     "ReadingsPerSample",
 ]
-
-_DID_NOTHING = EventStatus.DidNothing()
-"""The status of a base tick that is not this system's (one object, not one per call)."""
 
 BLOCK_SIZE = 4096
 """Samples per pre-generated block of draws."""
@@ -174,8 +172,8 @@ class PowerSensor(LeafSystem):
     t_j adds y(t_j) to an accumulator (a second discrete-state group: Σy [W], count), and the
     last tick of each interval of m emits :func:`AveragedSample` with noise σ/√n (module
     docstring) and clears it. Without averaging, when 1/rate is n ≥ 2 base steps ``time_step``
-    (:func:`~eaplan_drake.params.TicksPerPeriod`) the sample is taken on every n-th base tick,
-    so its times coincide bit for bit with the loop's; otherwise at k/rate.
+    the sample is taken on every n-th base tick, so its times coincide bit for bit with the
+    loop's (:func:`~eaplan_drake.ticks.DeclareTickedDiscreteUpdateEvent`); otherwise at k/rate.
 
     .. pydrake_system::
 
@@ -207,17 +205,12 @@ class PowerSensor(LeafSystem):
             self._m = BaseStepsPerSample(self._rate, self._time_step)
             self._readings = ReadingsPerSample(params.native_rate, self._rate)
             self._sum_index = self.DeclareDiscreteState(np.zeros(2))  # Σy [W], count
-            self._ticks = 1
             self.DeclarePeriodicDiscreteUpdateEvent(self._time_step, 0.0, self._Accumulate)
         else:
             self._time_step = None if time_step is None else float(time_step)
             self._m = 1
             self._readings = 1
-            self._ticks = TicksPerPeriod(self._period, time_step)
-            if self._ticks > 1:  # on the base tick, every n-th (times coincide bit for bit)
-                self.DeclarePeriodicDiscreteUpdateEvent(self._time_step, 0.0, self._Sample)
-            else:
-                self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._Sample)
+            DeclareTickedDiscreteUpdateEvent(self, self._period, time_step, self._Sample)
         # The held sample is a state group: a state output port, no Python call per read.
         self._measured_port = self.DeclareStateOutputPort("measured_power", self._state_index)
 
@@ -255,8 +248,6 @@ class PowerSensor(LeafSystem):
         self._block = block
 
     def _Sample(self, context, discrete_state):
-        if self._ticks > 1 and round(context.get_time() / self._time_step) % self._ticks:
-            return _DID_NOTHING
         k = int(round(context.get_time() * self._rate))
         block, local = divmod(k, BLOCK_SIZE)
         if block != self._block:

@@ -61,12 +61,12 @@ from eaplan_drake.coverage import (
     StageTime,
     SurveyFraction,
 )
+from eaplan_drake.ticks import DeclareTickedDiscreteUpdateEvent
 
 __all__ = ["SequencerMode", "StageSequencer", "StageSource", "Triggered", "UPDATE_PERIOD"]
 
-_DID_NOTHING = EventStatus.DidNothing()
 _SUCCEEDED = EventStatus.Succeeded()
-"""Event statuses returned on the hot path (one object each, not one per call)."""
+"""The status of an update that did its work (one object, not one per call)."""
 
 UPDATE_PERIOD = 0.05
 """Default period of the sequencer's trigger test [s] (the authors' simulator's)."""
@@ -184,7 +184,6 @@ class StageSequencer(LeafSystem):
                 f"StageSequencer.path_parameter_grid: need finite values, got {grid!r}"
             )
         self._time_step = float(time_step)
-        self._ticks = max(1, round(float(update_period) / self._time_step))
 
         # The remaining fraction is measured in survey lengths at the reference c1 = c̄1 (the
         # finest coverage), so that it does not jump when c1 is re-planned.
@@ -206,8 +205,9 @@ class StageSequencer(LeafSystem):
         self._path_index = self.DeclareDiscreteState(first.descriptor.copy())
         self._entries_index = self.DeclareDiscreteState(np.full(self._num_primitives, -1.0))
         self._source_index = self.DeclareDiscreteState(source[:])
-        self.DeclarePeriodicDiscreteUpdateEvent(
-            period_sec=self._time_step, offset_sec=0.0, update=self._Update
+        ticks = max(1, round(float(update_period) / self._time_step))
+        DeclareTickedDiscreteUpdateEvent(
+            self, ticks * self._time_step, self._time_step, self._Update
         )
 
         self._position_port = self.DeclareVectorInputPort("position", 2)
@@ -319,8 +319,6 @@ class StageSequencer(LeafSystem):
         output.SetFromVector(rest + mode.stage_left * StageTime(stage, v, w))
 
     def _Update(self, context, discrete_state):
-        if self._ticks > 1 and round(context.get_time() / self._time_step) % self._ticks:
-            return _DID_NOTHING
         # Drake fills discrete_state with the context's values before this handler
         # (LeafSystem::DispatchDiscreteVariableUpdateHandler): the groups are read and written in
         # place; entries, source, period and path change at stage switches only.
