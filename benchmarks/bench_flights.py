@@ -13,9 +13,12 @@ ten times larger and no reserve, so the whole c1 = 0 survey, ≈ 767 simulated s
 With ``--runs N`` every figure is the median of N runs (flights and reference loop interleaved).
 ``--baseline-tree DIR`` also flies each flight with the package found in DIR (e.g. a checkout of
 an older commit, ``git worktree add /tmp/old <commit>``) and prints the speed-up of this tree over
-it, measured in the same run. ``--set`` overrides a scenario key of this tree's flights (as
-``simulate --set``), e.g. ``--set simulation.plant=continuous``; ``--rates fast`` flies them at
-the studies' rate preset (:mod:`eaplan_drake.rates`, README "Rates"; issue 14's target 2).
+it, measured in the same run: as the ratio of the two trees' median speeds and as the median of
+the per-run ratios (in each run a flight is flown by both trees back to back, so a drift of the
+machine's load between runs cancels in the run's ratio). ``--set`` overrides a scenario key of
+this tree's flights (as ``simulate --set``), e.g. ``--set simulation.plant=continuous``;
+``--rates fast`` flies them at the studies' rate preset (:mod:`eaplan_drake.rates`, README
+"Rates"; issue 14's target 2).
 
 Targets (issue 14): dynamic flights (plan_i, plan_ii) at least 3× the speed of commit 9f6bcff in
 the same run, planner ≤ 20 % of a dynamic flight, peak memory ≤ 150 MB per flight.
@@ -100,6 +103,13 @@ def _Speed(row: dict) -> float:
     return row["simulated_s"] / row["cpu_s"] if row["cpu_s"] > 0 else float("nan")
 
 
+def _Paired(rows: list[dict], baseline_rows: list[dict]) -> str:
+    """The median of the per-run speed ratios of two trees' flights, with each run's ratio."""
+    ratios = [_Speed(r) / _Speed(b) for r, b in zip(rows, baseline_rows, strict=True)]
+    each = ", ".join(f"{x:.2f}" for x in ratios)
+    return f"{statistics.median(ratios):.2f}x ({each})"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("flights", nargs="*", default=FLIGHTS)
@@ -135,7 +145,7 @@ def main() -> None:
     header = "| flight | tree | status | simulated [s] | CPU [s] | x real time | / reference loop |"
     header += " planner share | peak [MB] |"
     if "baseline" in trees:
-        header += " speed-up over baseline |"
+        header += " speed-up over baseline | paired speed-up (per run) |"
     print(header)
     print("| --- " * (header.count("|") - 1) + "|")
     for name in args.flights:
@@ -154,7 +164,7 @@ def main() -> None:
                 f"({rs[0]['solves']} solves) | {peak:.0f} |"
             )
             if base_speed is not None:
-                line += f" {speed / base_speed:.2f}x |"
+                line += f" {speed / base_speed:.2f}x | {_Paired(rs, rows[(name, 'baseline')])} |"
             print(line)
 
 
