@@ -64,15 +64,15 @@ def KalmanPredict(q, P, Ad, Q, out=None):
     optional (q_out (m,), P_out (m×m)) arrays the result is written into and returned (the same
     values bit for bit; they may be the storage of ``q`` and ``P``, e.g. a system's state).
     """
-    P = Ad.dot(P).dot(Ad.T)  # ndarray.dot: the cheapest call for small matrices
-    P = P + P.T
-    P *= 0.5
+    X = Ad.dot(P).dot(Ad.T)  # ndarray.dot: the cheapest call for small matrices
+    X += X.T.copy()  # X + Xᵀ (a contiguous copy of Xᵀ adds faster than the strided view)
+    X *= 0.5
     if out is None:
-        P += Q
-        return Ad.dot(q), P
+        X += Q
+        return Ad.dot(q), X
     q_out, P_out = out
     q_next = Ad.dot(q)
-    np.add(P, Q, out=P_out)
+    np.add(X, Q, out=P_out)
     q_out[:] = q_next
     return q_out, P_out
 
@@ -80,10 +80,11 @@ def KalmanPredict(q, P, Ad, Q, out=None):
 def KalmanGain(P, c, R: float):
     """(k, u, s) for a scalar measurement: u = P cᵀ [W²], s = c u + R [W²], gain k = u / s [-].
 
-    ``c`` is the output row C, shape (m,) [-]; P [W²] (m×m); R [W²].
+    ``c`` is the output row C, shape (m,) [-]; P [W²] (m×m); R [W²]. ``s`` is a numpy float64
+    (an array divided by it takes numpy's fast path, not the Python-float one).
     """
     u = P.dot(c)
-    s = float(c.dot(u)) + R
+    s = c.dot(u) + R
     return u / s, u, s
 
 
@@ -92,17 +93,20 @@ def KalmanUpdate(q, P, c, R: float, z: float):
 
     u = P cᵀ, s = c u + R, k = u / s; q̂ = q + k (z − c q),
     P̂ = (I − k c) P (I − k c)ᵀ + k R kᵀ = P − (k uᵀ + u kᵀ) + s k kᵀ = P − (k vᵀ + v kᵀ) with
-    v = u − (s/2) k (exactly symmetric for a symmetric P; no m×m product). ``c`` is the output
-    row C, (m,) or (1×m) [-]; R [W²]. A non-finite z (a dropped sample) returns (q, P)
-    unchanged (the same objects).
+    v = u − (s/2) k (exactly symmetric for a symmetric P; no m×m product: k vᵀ and v kᵀ are
+    outer products, each entry one rounded multiplication, so v kᵀ is (k vᵀ)ᵀ to the bit).
+    ``c`` is the output row C, (m,) or (1×m) [-]; R [W²]. A non-finite z (a dropped sample)
+    returns (q, P) unchanged (the same objects).
     """
     if not math.isfinite(z):
         return q, P
     c = c.ravel()
     k, u, s = KalmanGain(P, c, R)
-    q = q + k * (z - float(c.dot(q)))
-    M = k[:, None] * (u - (0.5 * s) * k)
-    return q, P - (M + M.T)
+    q = q + k * (z - c.dot(q))
+    v = u - (0.5 * s) * k
+    k_col = k[:, None]
+    v_col = v[:, None]
+    return q, P - (k_col.dot(v_col.T) + v_col.dot(k_col.T))
 
 
 def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float, out=None):
