@@ -146,8 +146,9 @@ class EnergyEstimator(LeafSystem):
     aperiodic load d last) [W],
     ``estimated_power`` ŷ = C q̂ [W], ``covariance_trace`` tr P [W²], ``mean_power_variance``
     P_00 = Var(α̂0) [W²].
-    Discrete state, three groups: q̂⁻ (m) [W]; P⁻ row-major (m²) [W²];
-    :data:`~eaplan_drake.energy_model.InputMemory` (g at the previous step [W], T in use [s]).
+    Discrete state, one group (one read per update): q̂⁻ (m) [W], then P⁻ row-major (m²) [W²],
+    then :data:`~eaplan_drake.energy_model.InputMemory` (g at the previous step [W], T in use
+    [s]); :meth:`Estimate`, :meth:`Covariance` and :meth:`Memory` read its parts.
 
     .. pydrake_system::
 
@@ -212,29 +213,29 @@ class EnergyEstimator(LeafSystem):
         )
         self._R = float(estimator.measurement_noise)
         self._transition = TransitionMatrices(model, self._h)
-        self._q_index = self.DeclareDiscreteState(q0)
-        self._P_index = self.DeclareDiscreteState(
-            (estimator.initial_covariance * np.eye(m)).reshape(-1)
-        )
-        self._memory_index = self.DeclareDiscreteState(np.array([np.nan, T0]))
+        # One state group [q̂⁻ | P⁻ row-major | g_prev, T], sliced by these (views, no copy).
+        self._q_part = slice(0, m)
+        self._P_part = slice(m, m + m * m)
+        self._memory_part = slice(m + m * m, m + m * m + 2)
+        initial_P = (estimator.initial_covariance * np.eye(m)).reshape(-1)
+        self._state_index = self.DeclareDiscreteState(np.concatenate([q0, initial_P, [np.nan, T0]]))
         self._measured_port = self.DeclareVectorInputPort("measured_power", 1)
         self._computation_power_port = self.DeclareVectorInputPort("computation_power", 1)
         self._period_port = self.DeclareVectorInputPort("period", 1)
         self.DeclareInitializationDiscreteUpdateEvent(self._Initialize)
         DeclareTickedDiscreteUpdateEvent(self, self._h, time_step, self._Update)
-        q_ticket = {self.discrete_state_ticket(self._q_index)}
-        P_ticket = {self.discrete_state_ticket(self._P_index)}
-        self._energy_coefficients_port = self.DeclareStateOutputPort(
-            "energy_coefficients", self._q_index
+        state = {self.discrete_state_ticket(self._state_index)}
+        self._energy_coefficients_port = self.DeclareVectorOutputPort(
+            "energy_coefficients", m, self._CalcCoefficients, prerequisites_of_calc=state
         )
         self._estimated_power_port = self.DeclareVectorOutputPort(
-            "estimated_power", 1, self._CalcPower, prerequisites_of_calc=q_ticket
+            "estimated_power", 1, self._CalcPower, prerequisites_of_calc=state
         )
         self._covariance_trace_port = self.DeclareVectorOutputPort(
-            "covariance_trace", 1, self._CalcTrace, prerequisites_of_calc=P_ticket
+            "covariance_trace", 1, self._CalcTrace, prerequisites_of_calc=state
         )
         self._mean_power_variance_port = self.DeclareVectorOutputPort(
-            "mean_power_variance", 1, self._CalcMeanVariance, prerequisites_of_calc=P_ticket
+            "mean_power_variance", 1, self._CalcMeanVariance, prerequisites_of_calc=state
         )
 
     @property
@@ -254,17 +255,25 @@ class EnergyEstimator(LeafSystem):
     def params(self) -> EstimatorParams:
         return self._params
 
+    def _State(self, context: Context) -> np.ndarray:
+        return context.get_discrete_state(self._state_index).get_value()
+
+    def Estimate(self, context: Context) -> np.ndarray:
+        """A copy of q̂⁻ (m) [W] held in the context's state."""
+        return self._State(context)[self._q_part].copy()
+
     def Covariance(self, context: Context) -> np.ndarray:
-        """P⁻ (m×m) [W²] held in the context's state."""
+        """A copy of P⁻ (m×m) [W²] held in the context's state."""
         m = self._m
-        return context.get_discrete_state(self._P_index).get_value().reshape(m, m).copy()
+        return self._State(context)[self._P_part].reshape(m, m).copy()
 
     def Memory(self, context: Context) -> InputMemory:
-        """A copy of the memory group (g at the previous step [W], T in use [s])."""
-        return InputMemory(context.get_discrete_state(self._memory_index).CopyToVector())
+        """A copy of the memory (g at the previous step [W], T in use [s])."""
+        return InputMemory(self._State(context)[self._memory_part].copy())
 
     def _Initialize(self, context: Context, discrete_state: DiscreteValues) -> None:
-        memory = InputMemory(discrete_state.get_mutable_value(self._memory_index))
+        x = discrete_state.get_mutable_value(self._state_index)
+        memory = InputMemory(x[self._memory_part])
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
         memory.previous_computation_power = g if math.isfinite(g) else np.nan
@@ -274,27 +283,28 @@ class EnergyEstimator(LeafSystem):
     def _Update(self, context: Context, discrete_state: DiscreteValues):
         # Drake fills discrete_state with the context's current values before this handler
         # (LeafSystem::DispatchDiscreteVariableUpdateHandler): read and write it in place.
-        q = discrete_state.get_mutable_value(self._q_index)
-        P = discrete_state.get_mutable_value(self._P_index)
-        memory = discrete_state.get_mutable_value(self._memory_index)
+        x = discrete_state.get_mutable_value(self._state_index)
+        q = x[self._q_part]  # views of the state: the step writes its result in place
+        P = x[self._P_part].reshape(self._m, self._m)
+        memory = x[self._memory_part]
         z = self._measured_port.Eval(context)[0]
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
         dg = KnownInputStep(memory, g, T)
-        m = self._m
-        P = P.reshape(m, m)  # a view of the state: the step writes its result in place
         Ad = self._transition(memory[1])
         KalmanStep(q, P, z, dg, Ad, self._c, self._Q, self._R, out=(q, P))
         return None
 
+    def _CalcCoefficients(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self._State(context)[self._q_part])
+
     def _CalcPower(self, context: Context, output: BasicVector) -> None:
-        q = context.get_discrete_state(self._q_index).get_value()
-        output.SetAtIndex(0, float(self._c.dot(q)))
+        output.SetAtIndex(0, float(self._c.dot(self._State(context)[self._q_part])))
 
     def _CalcTrace(self, context: Context, output: BasicVector) -> None:
-        P = context.get_discrete_state(self._P_index).get_value()
+        P = self._State(context)[self._P_part]
         output.SetAtIndex(0, float(P[:: self._m + 1].sum()))
 
     def _CalcMeanVariance(self, context: Context, output: BasicVector) -> None:
-        P = context.get_discrete_state(self._P_index).get_value()
+        P = self._State(context)[self._P_part]
         output.SetAtIndex(0, float(P[0]))  # P_00: Var(α̂0) [W²]

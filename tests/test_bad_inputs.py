@@ -620,7 +620,7 @@ def test_a_non_finite_estimate_ends_the_flight_with_numerical_failure(monkeypatc
     def broken(self, context, discrete_state):
         update(self, context, discrete_state)
         if context.get_time() >= 3.0:
-            discrete_state.get_mutable_value(self._P_index)[0] = np.nan  # P[0, 0]
+            discrete_state.get_mutable_value(self._state_index)[self._P_part][0] = np.nan  # P[0, 0]
 
     monkeypatch.setattr(EnergyEstimator, "_Update", broken)
     scenario = LoadScenario(data="planner: {warmup: 60}\nsimulation: {time_limit: 20.0}\n")

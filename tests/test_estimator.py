@@ -192,14 +192,19 @@ def test_estimator_ports_and_sizes():
 
 
 def test_estimator_state_groups_and_copied_params():
-    """q̂, P and the memory (g at the previous step, T in use) are separate state groups; the
-    system keeps its own copy of the params."""
+    """q̂, P and the memory (g at the previous step, T in use) are the parts of one state group,
+    read by Estimate, Covariance and Memory; the system keeps its own copy of the params."""
     params = EstimatorParams(initial_covariance=4.0)
     est = EnergyEstimator(3, T_REF, params, Q_TRUE)
     params.measurement_noise = 99.0
     assert est.params.measurement_noise == 0.25 and est.params is not params
     context = est.CreateDefaultContext()
-    assert context.num_discrete_state_groups() == 3
+    assert context.num_discrete_state_groups() == 1
+    np.testing.assert_array_equal(est.Estimate(context), Q_TRUE)
+    np.testing.assert_array_equal(
+        est.GetOutputPort("energy_coefficients").Eval(context), est.Estimate(context)
+    )
+    np.testing.assert_array_equal(est.Covariance(context), 4.0 * np.eye(7))
     memory = est.Memory(context)
     assert math.isnan(memory.previous_computation_power) and memory.period == T_REF
     z, g, periods, _ = _reference_signal(1.0, seed=8)
