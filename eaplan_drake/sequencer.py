@@ -42,8 +42,10 @@ held remaining fraction and the held share of the active stage still to fly), ``
 was generated with; ``after_index`` −1 means the plan's first stage). The stage's geometry is not
 state: it comes from the plan source (a pure, cached function of those numbers). ``path``,
 ``period`` and ``mission_complete`` are state output ports (read every step by the guidance, the
-estimator and a monitor without a Python call); the other outputs depend on the state only (no
-direct feedthrough). Ports: see :class:`StageSequencer`.
+estimator and a monitor without a Python call), and so is ``mode`` (the :data:`SequencerMode`
+group: ``stage`` and ``coverage_remaining`` are two of its elements, which the flight log reads
+from it); the other outputs depend on the state only (no direct feedthrough). Ports: see
+:class:`StageSequencer`.
 """
 
 import math
@@ -130,6 +132,7 @@ class StageSequencer(LeafSystem):
         - coverage_remaining
         - remaining_time
         - mission_complete
+        - mode
     """
 
     def __init__(
@@ -236,6 +239,7 @@ class StageSequencer(LeafSystem):
         self._mission_complete_port = self.DeclareStateOutputPort(
             "mission_complete", self._complete_index
         )
+        self._mode_port = self.DeclareStateOutputPort("mode", self._mode_index)
 
     # -- accessors -------------------------------------------------------------------------------
 
