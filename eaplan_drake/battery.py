@@ -58,6 +58,8 @@ def IsBrownout(power, V, R_r):
 
     Returns a bool for scalar input, else a bool array of the broadcast shape.
     """
+    if type(power) is float:  # the Battery's update: no conversion
+        return power > MaxDeliverablePower(V, R_r)
     y, scalar = _Operand(power)
     out = y > MaxDeliverablePower(V, R_r)
     return bool(out) if scalar else out
@@ -74,7 +76,10 @@ def RintCurrent(power, V, R_r):
     system calls it at every update): the same expression is evaluated with ``math`` for a
     scalar (well under a µs) and with numpy for an array.
     """
-    y, scalar = _Operand(power)
+    if type(power) is float:  # the Battery's update: no conversion
+        y, scalar = power, True
+    else:
+        y, scalar = _Operand(power)
     sqrt, minimum, maximum = _SCALAR_OPS if scalar else _ARRAY_OPS
     disc = maximum(V * V - 4.0 * R_r * y, 0.0)
     return 2.0 * minimum(y, MaxDeliverablePower(V, R_r)) / (V + sqrt(disc))
@@ -97,8 +102,10 @@ def SocAfter(b0, power, duration, params: BatteryParams):
     :class:`Battery` system (``duration`` = its time step h). Scalars give a float; arrays
     broadcast element-wise.
     """
-    b0, _ = _Operand(b0)
     current = RintCurrent(power, params.voltage, params.internal_resistance)
+    if type(b0) is float and type(current) is float:  # the Battery's update: no conversion
+        return min(max(b0 - current * (params.k_b / params.capacity * duration), 0.0), 1.0)
+    b0, _ = _Operand(b0)
     b, scalar = _Operand(b0 - current * (params.k_b / params.capacity * duration))
     _, minimum, maximum = _SCALAR_OPS if scalar else _ARRAY_OPS
     return minimum(maximum(b, 0.0), 1.0)
@@ -242,7 +249,7 @@ class Battery(LeafSystem):
     # -- hot path ------------------------------------------------------------------------------
 
     def _Power(self, context) -> float:
-        y = float(self._power_port.Eval(context)[0])
+        y = self._power_port.Eval(context).item(0)
         if not math.isfinite(y):
             raise RuntimeError(
                 f"Battery: input 'power' is not finite ({y}) at t = {context.get_time()}"
