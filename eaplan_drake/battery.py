@@ -103,7 +103,7 @@ def SocAfter(b0, power, duration, params: BatteryParams):
     broadcast element-wise.
     """
     current = RintCurrent(power, params.voltage, params.internal_resistance)
-    if type(b0) is float and type(current) is float:  # the Battery's update: no conversion
+    if type(b0) is float and type(current) is float and type(duration) is float:  # the update
         return min(max(b0 - current * (params.k_b / params.capacity * duration), 0.0), 1.0)
     b0, _ = _Operand(b0)
     b, scalar = _Operand(b0 - current * (params.k_b / params.capacity * duration))
