@@ -58,8 +58,6 @@ def IsBrownout(power, V, R_r):
 
     Returns a bool for scalar input, else a bool array of the broadcast shape.
     """
-    if type(power) is float:  # the Battery's update: no conversion
-        return power > MaxDeliverablePower(V, R_r)
     y, scalar = _Operand(power)
     out = y > MaxDeliverablePower(V, R_r)
     return bool(out) if scalar else out
@@ -76,10 +74,7 @@ def RintCurrent(power, V, R_r):
     system calls it at every update): the same expression is evaluated with ``math`` for a
     scalar (well under a µs) and with numpy for an array.
     """
-    if type(power) is float:  # the Battery's update: no conversion
-        y, scalar = power, True
-    else:
-        y, scalar = _Operand(power)
+    y, scalar = _Operand(power)
     sqrt, minimum, maximum = _SCALAR_OPS if scalar else _ARRAY_OPS
     disc = maximum(V * V - 4.0 * R_r * y, 0.0)
     return 2.0 * minimum(y, MaxDeliverablePower(V, R_r)) / (V + sqrt(disc))
@@ -102,10 +97,8 @@ def SocAfter(b0, power, duration, params: BatteryParams):
     :class:`Battery` system (``duration`` = its time step h). Scalars give a float; arrays
     broadcast element-wise.
     """
-    current = RintCurrent(power, params.voltage, params.internal_resistance)
-    if type(b0) is float and type(current) is float and type(duration) is float:  # the update
-        return min(max(b0 - current * (params.k_b / params.capacity * duration), 0.0), 1.0)
     b0, _ = _Operand(b0)
+    current = RintCurrent(power, params.voltage, params.internal_resistance)
     b, scalar = _Operand(b0 - current * (params.k_b / params.capacity * duration))
     _, minimum, maximum = _SCALAR_OPS if scalar else _ARRAY_OPS
     return minimum(maximum(b, 0.0), 1.0)
@@ -119,6 +112,8 @@ _SCALAR_TYPES = (float, int)
 def _Operand(value) -> tuple:
     """(value as a float, True) for a Python or numpy scalar, else (a float array, False): the
     functions above evaluate one expression with ``math`` for scalars and numpy for arrays."""
+    if type(value) is float:  # the Battery's update: no conversion
+        return value, True
     if isinstance(value, _SCALAR_TYPES):
         return float(value), True
     array = np.asarray(value, dtype=float)

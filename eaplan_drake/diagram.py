@@ -317,8 +317,7 @@ def AddSignalLoggers(builder: DiagramBuilder, systems: dict, log_period: float) 
         builder.ExportOutput(port, name)
     builder.ExportOutput(systems["sequencer"].GetOutputPort("mission_complete"), "mission_complete")
     if log_period > 0.0:
-        inputs = list(dict.fromkeys(_LogInput(name) for name in LOGGED_SIGNALS))
-        sources = [systems[system].GetOutputPort(port) for system, port in inputs]
+        sources = [systems[system].GetOutputPort(port) for system, port in _LogInputs()]
         mux = builder.AddSystem(Multiplexer([port.size() for port in sources]))
         mux.set_name("log_mux")
         for i, port in enumerate(sources):
@@ -337,9 +336,8 @@ def LoggedSignals(diagram: Diagram, context) -> tuple[np.ndarray, dict[str, np.n
     log = diagram.GetSubsystemByName("log").FindLog(context)
     data = np.array(log.data())
     mux = diagram.GetSubsystemByName("log_mux")
-    inputs = list(dict.fromkeys(_LogInput(name) for name in LOGGED_SIGNALS))
     first_row, row = {}, 0
-    for i, source in enumerate(inputs):
+    for i, source in enumerate(_LogInputs()):
         first_row[source] = row
         row += mux.get_input_port(i).size()
     signals = {}
@@ -355,6 +353,12 @@ def _LogInput(name: str) -> tuple[str, str]:
     if name in LOG_SOURCES:
         return LOG_SOURCES[name][:2]
     return LOGGED_SIGNALS[name]
+
+
+def _LogInputs() -> list[tuple[str, str]]:
+    """The ``log_mux`` inputs in order: each (system name, output port name) of
+    :func:`_LogInput` once, in the order of :data:`LOGGED_SIGNALS`."""
+    return list(dict.fromkeys(_LogInput(name) for name in LOGGED_SIGNALS))
 
 
 def MakeEaplanDiagram(
