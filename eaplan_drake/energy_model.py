@@ -261,20 +261,27 @@ def KnownInputStep(memory, g: float, T: float) -> float:
 
 class TransitionMatrices:
     """A_d(T) of :func:`DiscreteEnergyMatrices` for a fixed model and step h [s], cached per T
-    (a pure function of T; the cache is emptied after ``max_periods`` periods)."""
+    (a pure function of T; the cache is emptied after ``max_periods`` periods), with ½ A_d
+    (:meth:`WithHalf`, for :func:`~eaplan_drake.estimator.KalmanPredict`)."""
 
     def __init__(self, order, h: float, max_periods: int = 64):
         self._order, self._h, self._max = order, float(h), int(max_periods)
         self._cache = {}
 
-    def __call__(self, period: float) -> np.ndarray:
-        Ad = self._cache.get(period)
-        if Ad is None:
+    def WithHalf(self, period: float) -> tuple[np.ndarray, np.ndarray]:
+        """(A_d(T), ½ A_d(T)) for T = ``period`` [s] (the same arrays at every call)."""
+        pair = self._cache.get(period)
+        if pair is None:
             if len(self._cache) >= self._max:
                 self._cache.clear()
             Ad = DiscreteEnergyMatrices(self._order, period, self._h)[0]
-            self._cache[period] = Ad
-        return Ad
+            pair = (Ad, 0.5 * Ad)
+            self._cache[period] = pair
+        return pair
+
+    def __call__(self, period: float) -> np.ndarray:
+        """A_d(T) for T = ``period`` [s]."""
+        return self.WithHalf(period)[0]
 
 
 def FreeResponseMatrix(order, period: float, step: float, num_points: int) -> np.ndarray:

@@ -57,23 +57,27 @@ __all__ = [
 ]
 
 
-def KalmanPredict(q, P, Ad, Q, out=None):
+def KalmanPredict(q, P, Ad, Q, out=None, half_Ad=None):
     """Time update: (A_d q, A_d P A_dᵀ + Q) with P symmetrised; q [W], P and Q [W²] (m×m).
 
     A known input B Δg enters in :func:`KalmanStep`, before the measurement update. ``out``:
     optional (q_out (m,), P_out (m×m)) arrays the result is written into and returned (the same
     values bit for bit; they may be the storage of ``q`` and ``P``, e.g. a system's state).
+    ``half_Ad``: ½ A_d precomputed (:meth:`~eaplan_drake.energy_model.TransitionMatrices.Half`;
+    computed here when None). The symmetrised ½ (X + Xᵀ), X = A_d P A_dᵀ, is formed as
+    Y + Yᵀ with Y = (½ A_d) P A_dᵀ: scaling by 2⁻¹ commutes with every rounding, so Y = ½ X to
+    the bit (no subnormal products at the magnitudes of P [W²]).
     """
-    X = Ad.dot(P).dot(Ad.T)  # ndarray.dot: the cheapest call for small matrices
-    X += X.T.copy()  # X + Xᵀ (a contiguous copy of Xᵀ adds faster than the strided view)
-    X *= 0.5
+    if half_Ad is None:
+        half_Ad = 0.5 * Ad
+    X = half_Ad.dot(P).dot(Ad.T)  # ndarray.dot: the cheapest call for small matrices
+    X += X.T.copy()  # Y + Yᵀ (a contiguous copy of Yᵀ adds faster than the strided view)
     if out is None:
         X += Q
         return Ad.dot(q), X
     q_out, P_out = out
-    q_next = Ad.dot(q)
+    np.dot(Ad, q, out=q_out)  # numpy buffers the product when q is q_out's own storage
     np.add(X, Q, out=P_out)
-    q_out[:] = q_next
     return q_out, P_out
 
 
@@ -109,7 +113,7 @@ def KalmanUpdate(q, P, c, R: float, z: float):
     return q, P - (k_col.dot(v_col.T) + v_col.dot(k_col.T))
 
 
-def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float, out=None):
+def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float, out=None, half_Ad=None):
     """One filter step at t_k: add B Δg_k to α0, update with z_k, predict to t_{k+1}.
 
     (q_prior [W], P_prior [W²]) is the a priori estimate at t_k, z_k [W] the sample (non-finite:
@@ -117,15 +121,15 @@ def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float, out=No
     Q [W²] (m×m) precomputed (:func:`~eaplan_drake.energy_model.DiscreteEnergyMatrices`,
     :func:`~eaplan_drake.energy_model.ProcessNoiseMatrix`), ``c`` the output row C, R [W²].
     Returns the a priori (q̂⁻, P⁻) for t_{k+1} as new arrays, or written into ``out`` = (q_out,
-    P_out) (:func:`KalmanPredict`; they may be the prior's own storage). B = e_0 (Δg enters α0
-    only).
+    P_out) (:func:`KalmanPredict`, as ``half_Ad``; they may be the prior's own storage).
+    B = e_0 (Δg enters α0 only).
     """
     q = np.asarray(q_prior, dtype=float)
     if dg != 0.0:
         q = q.copy()
         q[0] += dg
     q, P = KalmanUpdate(q, P_prior, c, R, z)
-    return KalmanPredict(q, P, Ad, Q, out)
+    return KalmanPredict(q, P, Ad, Q, out, half_Ad)
 
 
 class EnergyEstimator(LeafSystem):
@@ -251,6 +255,11 @@ class EnergyEstimator(LeafSystem):
     def time_step(self) -> float:
         return self._h
 
+    def EstimatedPower(self, q) -> float:
+        """ŷ = C q [W] for energy coefficients q (m,) [W]: the ``estimated_power`` output of
+        q = q̂⁻ (also used on logged coefficients, :data:`~eaplan_drake.diagram.LOG_DERIVED`)."""
+        return float(self._c.dot(q))
+
     @property
     def params(self) -> EstimatorParams:
         return self._params
@@ -291,15 +300,15 @@ class EnergyEstimator(LeafSystem):
         g = self._computation_power_port.Eval(context)[0]
         T = self._period_port.Eval(context)[0]
         dg = KnownInputStep(memory, g, T)
-        Ad = self._transition(memory[1])
-        KalmanStep(q, P, z, dg, Ad, self._c, self._Q, self._R, out=(q, P))
+        Ad, half_Ad = self._transition.WithHalf(memory[1])
+        KalmanStep(q, P, z, dg, Ad, self._c, self._Q, self._R, out=(q, P), half_Ad=half_Ad)
         return None
 
     def _CalcCoefficients(self, context: Context, output: BasicVector) -> None:
         output.SetFromVector(self._State(context)[self._q_part])
 
     def _CalcPower(self, context: Context, output: BasicVector) -> None:
-        output.SetAtIndex(0, float(self._c.dot(self._State(context)[self._q_part])))
+        output.SetAtIndex(0, self.EstimatedPower(self._State(context)[self._q_part]))
 
     def _CalcTrace(self, context: Context, output: BasicVector) -> None:
         P = self._State(context)[self._P_part]
