@@ -181,10 +181,11 @@ class Battery(LeafSystem):
     ``Simulator.AdvanceTo`` then returns a status whose ``message()`` is that string.
 
     Outputs: ``soc`` b(t_k) [-] and ``power_budget`` b·Q_c·V (Def. III.3, see :func:`PowerBudget`)
-    depend on the state only; ``current`` I(y(t)) [A] and ``brownout`` (1.0 when y(t) > V²/(4R_r),
-    else 0.0, :func:`IsBrownout`) are direct feedthrough of ``power``. Above V²/(4R_r) the current
-    is V/(2R_r) and the SoC falls at that current (never NaN). A non-finite ``power`` raises
-    RuntimeError.
+    depend on the state only (``state`` is the whole discrete state, :data:`BatteryState`, as a
+    state output port: no Python call per read); ``current`` I(y(t)) [A] and ``brownout`` (1.0 when
+    y(t) > V²/(4R_r), else 0.0, :func:`IsBrownout`) are direct feedthrough of ``power``. Above
+    V²/(4R_r) the current is V/(2R_r) and the SoC falls at that current (never NaN). A non-finite
+    ``power`` raises RuntimeError.
 
     The discrete state is :data:`BatteryState`. The system keeps a copy of ``params``.
 
@@ -198,6 +199,7 @@ class Battery(LeafSystem):
         - current
         - power_budget
         - brownout
+        - state
     """
 
     def __init__(self, params: BatteryParams, *, time_step: float):
@@ -230,6 +232,7 @@ class Battery(LeafSystem):
         self._brownout_port = self.DeclareVectorOutputPort(
             "brownout", 1, self._CalcBrownout, prerequisites_of_calc=from_input
         )
+        self._state_port = self.DeclareStateOutputPort("state", self._state_index)
 
     @property
     def time_step(self) -> float:

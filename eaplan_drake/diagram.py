@@ -10,23 +10,29 @@
          │                  └──────────► Battery ───────────────┘               │ c2
          └──────────────────────────────────────────────────────────────────────┘
 
-The planner's policy is ``scenario.planner.policy`` (:func:`~eaplan_drake.policies.MakePolicy`)
-or any :class:`~eaplan_drake.planner.PlannerPolicy` passed as ``policy``; a static plan (paper 003
+The planner's policy is ``scenario.planner.policy`` (:func:`~eaplan_drake.policies.MakePolicy`) or
+any :class:`~eaplan_drake.planner.PlannerPolicy` passed as ``policy``; a static plan (paper 003
 plans I and II) is the same diagram with ``planner.policy: static``. Every system is named
 (``plant``, ``sequencer``, ``guidance``, ``computation``, ``total_power``, ``sensor``,
-``estimator``, ``battery``, ``planner``, ``wind``), the key signals are exported as diagram
-output ports of the same names, and the logged signals (:data:`LOGGED_SIGNALS`) go through one
-``Multiplexer`` named ``log_mux`` into one ``VectorLogSink`` named ``log``; :func:`LoggedSignals`
-splits its rows by signal.
-"""
+``estimator``, ``battery``, ``planner``, ``wind``, ``kinematics_demux``), the key signals are
+exported as diagram output ports of the same names, and the logged signals (:data:`LOGGED_SIGNALS`)
+go through one ``Multiplexer`` named ``log_mux`` into one ``VectorLogSink`` named ``log``;
+:func:`LoggedSignals` splits its rows by signal and computes the few (:data:`LOG_DERIVED`) that
+are functions of other logged signals."""
 
 import dataclasses as dc
 
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
-from pydrake.systems.primitives import Adder, ConstantVectorSource, LogVectorOutput, Multiplexer
+from pydrake.systems.primitives import (
+    Adder,
+    ConstantVectorSource,
+    Demultiplexer,
+    LogVectorOutput,
+    Multiplexer,
+)
 
-from eaplan_drake.battery import Battery
+from eaplan_drake.battery import Battery, IsBrownout, PowerBudget
 from eaplan_drake.computation import ComputationLoad
 from eaplan_drake.estimator import EnergyEstimator
 from eaplan_drake.guidance import VectorFieldGuidance
@@ -40,6 +46,7 @@ from eaplan_drake.sequencer import StageSequencer
 
 __all__ = [
     "LOGGED_SIGNALS",
+    "LOG_DERIVED",
     "LOG_SOURCES",
     "AddEnergyLoop",
     "AddGuidedAircraft",
@@ -82,10 +89,36 @@ LOG_SOURCES = {
     "heading": ("plant", "kinematics", 2),
     "stage": ("sequencer", "mode", 0),
     "coverage_remaining": ("sequencer", "mode", 2),
+    "soc": ("battery", "state", 0),
 }
 """Logged signals that the ``log`` sink reads as elements of a state output port instead of the
 signal's own (calculated) port: the same values, without a Python call per sample. E.g. the
 plant's ``position`` is (x, y) of its ``kinematics`` state (x, y, ψ, ṗ_x, ṗ_y)."""
+
+
+def _EstimatedPower(diagram: Diagram, signals: dict) -> np.ndarray:
+    estimator = diagram.GetSubsystemByName("estimator")
+    coefficients = signals["energy_coefficients"]
+    return np.array([estimator.EstimatedPower(q) for q in coefficients]).reshape(-1, 1)
+
+
+def _PowerBudget(diagram: Diagram, signals: dict) -> np.ndarray:
+    return PowerBudget(signals["soc"], diagram.GetSubsystemByName("battery").params)
+
+
+def _Brownout(diagram: Diagram, signals: dict) -> np.ndarray:
+    p = diagram.GetSubsystemByName("battery").params
+    return IsBrownout(signals["true_power"], p.voltage, p.internal_resistance).astype(float)
+
+
+LOG_DERIVED = {
+    "estimated_power": _EstimatedPower,  # ŷ = C q̂ of the logged energy_coefficients
+    "power_budget": _PowerBudget,  # b·Q_c·V of the logged soc
+    "brownout": _Brownout,  # 1.0 where the logged true_power y > V²/(4R_r)
+}
+"""Logged signals that the ``log`` sink does not sample: :func:`LoggedSignals` computes them
+from other logged signals with the function the system's output port calls (the same values to
+the bit; the sink spares a Python call per signal and sample)."""
 
 
 @dc.dataclass(frozen=True)
@@ -123,11 +156,13 @@ def AddGuidedAircraft(
     """Adds and wires the flight side of ``scenario`` to ``builder``: ``wind``
     (a constant w [m/s], :meth:`~eaplan_drake.params.WindParams.Vector`), ``plant``
     (:class:`~eaplan_drake.plant.FixedWingPlant`), ``sequencer``
-    (:class:`~eaplan_drake.sequencer.StageSequencer` over ``plan``, a plan source) and
-    ``guidance`` (:class:`~eaplan_drake.guidance.VectorFieldGuidance`)::
+    (:class:`~eaplan_drake.sequencer.StageSequencer` over ``plan``, a plan source),
+    ``guidance`` (:class:`~eaplan_drake.guidance.VectorFieldGuidance`) and
+    ``kinematics_demux`` (a ``Demultiplexer`` handing (x, y) of the plant's kinematics to the
+    sequencer)::
 
-        wind ─► plant ─► sequencer ─► guidance ─► plant
-                  └─────────────────────┘ (position, ground velocity, heading)
+        wind ─► plant ─► kinematics_demux ─► sequencer ─► guidance ─► plant
+                  └───────────────────────────────────────────┘ (kinematics)
 
     ``initial_path_parameter`` is the c1 [m²] the sequencer starts with. The sequencer's
     ``path_parameters`` input is left for the caller (a planner), or fed the constant
@@ -161,7 +196,12 @@ def AddGuidedAircraft(
     )
     connect = builder.Connect
     connect(wind.get_output_port(), plant.GetInputPort("wind"))
-    connect(plant.GetOutputPort("position"), sequencer.GetInputPort("position"))
+    # The sequencer reads (x, y) as the first two elements of the plant's kinematics (x, y, ψ,
+    # ṗ_x, ṗ_y), split in C++ by a Demultiplexer: the same values as the plant's ``position``
+    # output, without its Python calculation at every sequencer update.
+    split = builder.AddNamedSystem("kinematics_demux", Demultiplexer([2, 3]))
+    connect(plant.GetOutputPort("kinematics"), split.get_input_port())
+    connect(split.get_output_port(0), sequencer.GetInputPort("position"))
     connect(plant.GetOutputPort("kinematics"), guidance.GetInputPort("kinematics"))
     connect(sequencer.GetOutputPort("path"), guidance.GetInputPort("path"))
     connect(
@@ -301,7 +341,8 @@ def AddSignalLoggers(builder: DiagramBuilder, systems: dict, log_period: float) 
     diagram output port of the same name and, when ``log_period`` [s] > 0, logs them all every
     ``log_period`` through one ``Multiplexer`` named ``log_mux`` (inputs in the order of
     :data:`LOGGED_SIGNALS`) into one ``VectorLogSink`` named ``log`` (:func:`LoggedSignals`
-    splits its rows by signal). ``systems`` maps system names to systems.
+    splits its rows by signal and adds :data:`LOG_DERIVED`). ``systems`` maps system names to
+    systems.
 
     One sink instead of one per signal: a flight at 100 Hz spends ≈ 8 % fewer instructions per
     step (every leaf system costs the simulator its next-event query and event bookkeeping at
@@ -342,10 +383,14 @@ def LoggedSignals(diagram: Diagram, context) -> tuple[np.ndarray, dict[str, np.n
         row += mux.get_input_port(i).size()
     signals = {}
     for name in LOGGED_SIGNALS:
+        if name in LOG_DERIVED:
+            continue
         start = first_row[_LogInput(name)] + (LOG_SOURCES[name][2] if name in LOG_SOURCES else 0)
         size = diagram.GetOutputPort(name).size()
         signals[name] = data[start : start + size].T.copy()
-    return np.array(log.sample_times()), signals
+    for name, derive in LOG_DERIVED.items():
+        signals[name] = derive(diagram, signals)
+    return np.array(log.sample_times()), {name: signals[name] for name in LOGGED_SIGNALS}
 
 
 def _LogInput(name: str) -> tuple[str, str]:
@@ -357,8 +402,11 @@ def _LogInput(name: str) -> tuple[str, str]:
 
 def _LogInputs() -> list[tuple[str, str]]:
     """The ``log_mux`` inputs in order: each (system name, output port name) of
-    :func:`_LogInput` once, in the order of :data:`LOGGED_SIGNALS`."""
-    return list(dict.fromkeys(_LogInput(name) for name in LOGGED_SIGNALS))
+    :func:`_LogInput` once, in the order of :data:`LOGGED_SIGNALS` (without
+    :data:`LOG_DERIVED`)."""
+    return list(
+        dict.fromkeys(_LogInput(name) for name in LOGGED_SIGNALS if name not in LOG_DERIVED)
+    )
 
 
 def MakeEaplanDiagram(

@@ -157,14 +157,15 @@ def Soc(battery, context) -> float:
 
 def test_ports_and_sizes():
     battery = Battery(Reference(), time_step=H)
-    assert battery.num_input_ports() == 1 and battery.num_output_ports() == 4
+    assert battery.num_input_ports() == 1 and battery.num_output_ports() == 5
     assert battery.GetInputPort("power").size() == 1
     for name in ("soc", "current", "power_budget", "brownout"):
         assert battery.GetOutputPort(name).size() == 1
-    # SoC and budget come from the state; current and brownout follow the load directly.
+    assert battery.GetOutputPort("state").size() == len(BatteryState._fields)
+    # SoC, budget and state come from the state; current and brownout follow the load directly.
     feedthrough = {
         name
-        for name in ("soc", "current", "power_budget", "brownout")
+        for name in ("soc", "current", "power_budget", "brownout", "state")
         if battery.HasDirectFeedthrough(0, battery.GetOutputPort(name).get_index())
     }
     assert feedthrough == {"current", "brownout"}

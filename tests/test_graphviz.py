@@ -27,7 +27,8 @@ def test_the_loop_picture_shows_the_systems_not_the_loggers_or_exported_ports():
     for name in ("estimator", "battery", "planner"):
         assert f'"{name}" [label=' in dot
     assert "log_" not in dot and "output ports" not in dot
-    assert dot.count(" -> ") == 17  # one edge per connected pair of systems
+    assert dot.count(" -> ") == 18  # one edge per connected pair of systems
+    assert '"kinematics_demux" -> "sequencer" [label="y0 → position"]' in dot
     assert '"planner" -> "sequencer" [label="path_parameters"]' in dot
     assert '"total_power" -> "battery" [label="sum → power"]' in dot
     assert '"total_power" -> "sensor" [label="sum → power"]' in dot
