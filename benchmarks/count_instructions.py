@@ -1,6 +1,11 @@
 """Instructions per simulation step of a flight, counted by valgrind's callgrind: a speed measure
-that does not depend on the machine's load (a busy 2-core machine moves CPU times by ±20 %; the
-count moves by well under 1 %).
+that does not depend on the machine's load (a busy 2-core machine moves CPU times by ±20 %).
+
+Each count runs with ``PYTHONHASHSEED=0`` and, where ``setarch`` is installed (util-linux), with
+address-space randomisation off (``setarch -R``): the instance maps of pybind11 hash pointers, so
+with randomised addresses the count of one tree moved by ±1.5 % from run to run; without
+randomisation two runs of one tree agreed within 0.2 % (plan i, 85–89 s: 478.6k and 479.4k
+instructions per step).
 
     python3 benchmarks/count_instructions.py [--baseline-tree DIR] [--window 10 40] [FLIGHT ...]
 
@@ -49,11 +54,13 @@ print(scenario.simulation.max_step)
 
 def Count(tree: Path, flight: str, until: float) -> tuple[int, float]:
     """(instructions of a process that flies ``flight`` to ``until`` [s], the base step [s])."""
-    env = dict(os.environ, PYTHONPATH=str(tree))
+    env = dict(os.environ, PYTHONPATH=str(tree), PYTHONHASHSEED="0")
+    fixed_addresses = ["setarch", "-R"] if shutil.which("setarch") else []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
         result = subprocess.run(
             [
+                *fixed_addresses,
                 "valgrind",
                 "--tool=callgrind",
                 f"--callgrind-out-file={out}",
