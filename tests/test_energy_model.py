@@ -404,6 +404,9 @@ def test_known_input_step_and_transition_cache():
     cache = TransitionMatrices(3, 0.01, max_periods=2)
     for T in (46.0, 30.0, 46.0, 23.0):
         np.testing.assert_array_equal(cache(T), DiscreteFourierMatrices(3, T, 0.01)[0])
+        Ad, half = cache.WithHalf(T)
+        assert Ad is cache(T) and half is cache.WithHalf(T)[1]  # cached, not recomputed
+        np.testing.assert_array_equal(half, 0.5 * Ad)
 
 
 def test_process_noise_matrix_is_the_models_q():

@@ -129,6 +129,11 @@ def test_joseph_update_equals_standard_form_and_skips_nan():
     np.testing.assert_allclose(q3, Ad @ q, atol=1e-14)
     np.testing.assert_allclose(P3, Ad @ P @ Ad.T + 1e-6 * np.eye(7), atol=1e-12)
     assert np.array_equal(P3, P3.T)
+    # ½(X + Xᵀ) formed from (½A_d) P A_dᵀ is the symmetrised X to the bit
+    X = Ad.dot(P).dot(Ad.T)
+    np.testing.assert_array_equal(P3, 0.5 * (X + X.T) + 1e-6 * np.eye(7))
+    q4, P4 = KalmanPredict(q, P, Ad, 1e-6 * np.eye(7), half_Ad=0.5 * Ad)
+    assert np.array_equal(q4, q3) and np.array_equal(P4, P3)
     # Joseph form: (I − KC) P (I − KC)ᵀ + K R Kᵀ written out with m×m products
     L = np.eye(7) - K @ C
     np.testing.assert_allclose(P1, L @ P @ L.T + R * K @ K.T, rtol=0.0, atol=1e-12)
@@ -186,6 +191,8 @@ def test_estimator_ports_and_sizes():
     context = est.CreateDefaultContext()
     np.testing.assert_array_equal(est.GetOutputPort("energy_coefficients").Eval(context), q0[:5])
     assert est.GetOutputPort("estimated_power").Eval(context)[0] == 31.0
+    assert est.EstimatedPower(q0[:5]) == 31.0  # ŷ = C q: α0 + α1 + α2 (the log derives it so)
+    assert est.EstimatedPower([0.0, 0.0, 5.0, 0.0, 0.0]) == 0.0  # β1 does not reach y at t_k
     assert est.GetOutputPort("covariance_trace").Eval(context)[0] == pytest.approx(20.0)
     np.testing.assert_array_equal(est.Covariance(context), 4.0 * np.eye(5))
     assert est.time_step == pytest.approx(0.01)
