@@ -63,7 +63,7 @@ def KalmanPredict(q, P, Ad, Q, out=None, half_Ad=None):
     A known input B Δg enters in :func:`KalmanStep`, before the measurement update. ``out``:
     optional (q_out (m,), P_out (m×m)) arrays the result is written into and returned (the same
     values bit for bit; they may be the storage of ``q`` and ``P``, e.g. a system's state).
-    ``half_Ad``: ½ A_d precomputed (:meth:`~eaplan_drake.energy_model.TransitionMatrices.Half`;
+    ``half_Ad``: ½ A_d precomputed (:meth:`~eaplan_drake.energy_model.TransitionMatrices.WithHalf`;
     computed here when None). The symmetrised ½ (X + Xᵀ), X = A_d P A_dᵀ, is formed as
     Y + Yᵀ with Y = (½ A_d) P A_dᵀ: scaling by 2⁻¹ commutes with every rounding, so Y = ½ X to
     the bit (no subnormal products at the magnitudes of P [W²]).
