@@ -1,6 +1,7 @@
 """Prediction error of the fitted energy model against three baselines (issue 11 targets).
 
-For every signal: fit order and noise on the first half (:func:`eaplan_drake.fit.FitPowerLog`;
+For every signal: fit order and noise on the first half
+(:func:`eaplan_drake.logfit.fit.FitPowerLog`;
 each signal's line says whether its noise came from the innovation likelihood or, for the
 horizons, from the multi-step error),
 score RMSE / MAE [W] at 1 step, T/4, T/2 and T ahead from origins in the second half, against
@@ -36,15 +37,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from eaplan_drake.energy_model import EstimatePeriodWithConfidence  # noqa: E402
-from eaplan_drake.fit import (  # noqa: E402
+from eaplan_drake.energy.fourier import EstimatePeriodWithConfidence  # noqa: E402
+from eaplan_drake.logfit.fit import (  # noqa: E402
     BASELINES,
     NOISE_CRITERIA_TEXT,
     ORDERS,
     FitPowerLog,
     SyntheticPower,
 )
-from eaplan_drake.powerlog import (  # noqa: E402
+from eaplan_drake.logfit.powerlog import (  # noqa: E402
     REFERENCE_ENV,
     ReadPeriodLog,
     ReadPowerLog,

@@ -8,7 +8,8 @@ plan i (c1 = 0, c2 = 10) and plan ii (c1 = −1000, c2 = 2) configurations. Prin
 95th percentile of the NLP solve time and of the whole step, and the failure count (paper
 policy; with the table's integer parameters it solves no NLP, ``--continuous`` makes c2
 continuous so that it does). Then, for the mpc policy: on ``--states`` random feasible planner
-states as in flight (:func:`eaplan_drake.worlds.RandomPlannerObservation`: the reference plan at
+states as in flight (:func:`eaplan_drake.studies.worlds.RandomPlannerObservation`: the reference
+plan at
 a random stage, wind 0–12 m/s from any direction, random energy state and SoC), how often the
 NLP's first move equals brute-force enumeration of the same discrete problem, and its step
 times. Not a test.
@@ -23,11 +24,11 @@ import time
 
 import numpy as np
 
-from eaplan_drake.battery import SocDerivative
-from eaplan_drake.computation import LoadComputationTable
-from eaplan_drake.energy_model import DiscreteFourierMatrices
+from eaplan_drake.energy.battery import SocDerivative
+from eaplan_drake.energy.computation import LoadComputationTable
+from eaplan_drake.energy.fourier import DiscreteFourierMatrices
 from eaplan_drake.params import BatteryFault, BatteryParams, PlannerParams
-from eaplan_drake.planner import Planner
+from eaplan_drake.planning.planner import Planner
 
 PERIOD = 46.0
 ORDER = 3
@@ -81,10 +82,10 @@ def Replay(planner: Planner, c1: float, c2: float, steps: int, seed: int, cold: 
 
 def MpcAgreement(states: int, solver: str, seed: int = 8):
     """(agreeing, total, failures, step times [s]) of the mpc policy against brute force."""
-    from eaplan_drake.coverage import MakeCoveragePlan
+    from eaplan_drake.flight.coverage import MakeCoveragePlan
     from eaplan_drake.params import Scenario
-    from eaplan_drake.policies import MakePolicy
-    from eaplan_drake.worlds import RandomPlannerObservation
+    from eaplan_drake.planning.policies import MakePolicy
+    from eaplan_drake.studies.worlds import RandomPlannerObservation
 
     scenario = Scenario()
     scenario.planner.solver = solver

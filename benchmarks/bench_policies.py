@@ -4,7 +4,8 @@
         [--jobs 2] [--policies mpc,greedy,paper,greedy_authors] [--planner KEY=VALUE ...]
         [--rates fast|paper] [--out benchmarks/results/policies.json]
 
-Every world (:func:`eaplan_drake.worlds.DrawWorld`, n seeds from --first-seed, of the default
+Every world (:func:`eaplan_drake.studies.worlds.DrawWorld`, n seeds from --first-seed, of the
+default
 distribution:
 wind 0–12 m/s from any direction, 0–3 SoC drops of 0–15 % at 0–500 s, sensor noise 0.1–3 W,
 dropouts 0–30 %; at the rate preset ``--rates``, by default the studies' ``fast``, see
@@ -93,7 +94,7 @@ def SourceHash() -> str:
 
 def TaskKey(label: str, scenario, source: str) -> str:
     """The cache key of one flight task."""
-    from eaplan_drake.sweep import ScenarioHash
+    from eaplan_drake.studies.sweep import ScenarioHash
 
     return f"{label}:{ScenarioHash(scenario)}:{source}"
 
@@ -301,7 +302,7 @@ def main(argv=None) -> int:
 
     from eaplan_drake.params import POLICIES, Scenario
     from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
-    from eaplan_drake.worlds import DrawWorld, LowestPlan, WithPolicy
+    from eaplan_drake.studies.worlds import DrawWorld, LowestPlan, WithPolicy
 
     args.rates = args.rates or DEFAULT_STUDY_RATES
     if args.rates not in RATE_PRESETS:

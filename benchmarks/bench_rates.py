@@ -56,7 +56,8 @@ from eaplan_drake.rates import (
 
 FLIGHTS = ["plan_I", "plan_i", "plan_ii", "world10"]
 """The reference flights, and ``world<N>``: world N of ``benchmarks/bench_policies.py``
-(:func:`~eaplan_drake.worlds.DrawWorld` seed N, mpc policy); world 10 has the strongest wind of
+(:func:`~eaplan_drake.studies.worlds.DrawWorld` seed N, mpc policy); world 10 has the strongest
+wind of
 worlds 0–39 (11.5 m/s against the 15 m/s airspeed; sensor σ = 2.9 W, 25 % dropouts, 3 faults),
 the hardest case for a slow guidance tick among the worlds the studies fly."""
 
@@ -97,7 +98,7 @@ from eaplan_drake.simulation import LoadNamedScenario, Simulate
 name, rates, seed, out = sys.argv[1:5]
 if name.startswith("world"):
     from eaplan_drake.params import Scenario
-    from eaplan_drake.worlds import DrawWorld, WithPolicy
+    from eaplan_drake.studies.worlds import DrawWorld, WithPolicy
     base = WithPolicy(DrawWorld(Scenario(name="bench"), int(name[5:])), "mpc")
 else:
     base = LoadNamedScenario(name)

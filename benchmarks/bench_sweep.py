@@ -10,7 +10,7 @@ import textwrap
 import time
 from pathlib import Path
 
-from eaplan_drake.sweep import LoadStudy, RunStudy
+from eaplan_drake.studies.sweep import LoadStudy, RunStudy
 
 d = Path(tempfile.mkdtemp())
 (d / "eff.yaml").write_text(

@@ -18,10 +18,10 @@ import time
 
 import numpy as np
 
-from eaplan_drake.energy_model import DiscreteEnergyMatrices, OutputMatrix
-from eaplan_drake.plant import MaxHeadingRate
+from eaplan_drake.energy.fourier import DiscreteEnergyMatrices, OutputMatrix
+from eaplan_drake.energy.sensor import BLOCK_SIZE, NoiseSamples
+from eaplan_drake.flight.plant import MaxHeadingRate
 from eaplan_drake.resolve import ResolveScenario, StartParameters
-from eaplan_drake.sensor import BLOCK_SIZE, NoiseSamples
 
 GRAVITY = 9.81
 _FIELD_EPS = 1e-9

@@ -32,6 +32,7 @@ import textwrap  # noqa: E402
 import threading  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+from eaplan_drake.output.reference import PAPER_RESULTS, CompareTable  # noqa: E402
 from eaplan_drake.params import (  # noqa: E402
     POLICIES,
     OverrideFromAssignment,
@@ -39,7 +40,6 @@ from eaplan_drake.params import (  # noqa: E402
     ScenarioError,
 )
 from eaplan_drake.rates import RATE_PRESETS  # noqa: E402
-from eaplan_drake.reference import PAPER_RESULTS, CompareTable  # noqa: E402
 
 __all__ = ["main"]
 
@@ -74,7 +74,7 @@ def _FormatSummary(summary: dict) -> str:
 
 def _Simulate(args) -> int:
     _CheckScenarioName(args.scenario)  # before the slow pydrake import
-    from eaplan_drake.progress import FlightProgress, ProgressBar
+    from eaplan_drake.output.progress import FlightProgress, ProgressBar
     from eaplan_drake.resolve import ResolveScenario
     from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
 
@@ -126,7 +126,7 @@ def _CheckScenarioName(name: str) -> None:
 
 
 def _Diagram(args) -> int:
-    from eaplan_drake.graphviz import WriteDiagrams
+    from eaplan_drake.output.graphviz import WriteDiagrams
 
     written = WriteDiagrams(args.out)
     print(f"wrote {len(written)} files to {args.out}")
@@ -148,7 +148,7 @@ their scenarios) and the two dynamic ones again with the mpc policy."""
 
 
 def _Compare(args) -> int:
-    from eaplan_drake.progress import FlightProgress, ProgressBar
+    from eaplan_drake.output.progress import FlightProgress, ProgressBar
     from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
 
     scenarios = []
@@ -185,7 +185,7 @@ def _Compare(args) -> int:
             SaveFlight(log, scenario, Path(args.out) / scenario.name)
         rows.append((scenario.name, log.summary, PAPER_RESULTS[name]))
     if args.out:  # the same world flown by several policies, side by side
-        from eaplan_drake.plots import SavePolicyComparison
+        from eaplan_drake.output.plots import SavePolicyComparison
 
         for base in dict.fromkeys(name for name, _ in scenarios):
             flights = [(s, log) for (n, s), log in zip(scenarios, logs, strict=True) if n == base]
@@ -216,7 +216,7 @@ def _Sweep(args) -> int:
         import joblib  # noqa: F401
     except ImportError:
         raise ScenarioError("sweep needs the [sweep] extra: pip install -e '.[sweep]'") from None
-    from eaplan_drake.sweep import LoadStudy, RunStudy, StudyReport
+    from eaplan_drake.studies.sweep import LoadStudy, RunStudy, StudyReport
 
     study, directory = LoadStudy(_StudyPath(args.study))
     if args.rates:
@@ -240,7 +240,7 @@ def _Sweep(args) -> int:
 
 
 def _StudyReport(args) -> int:
-    from eaplan_drake.sweep import StudyReport
+    from eaplan_drake.studies.sweep import StudyReport
 
     report = StudyReport(args.directory)
     print(report.read_text().split("\n\n")[1])
@@ -249,8 +249,8 @@ def _StudyReport(args) -> int:
 
 
 def _Fit(args) -> int:
-    from eaplan_drake.fit import NOISE_CRITERIA_TEXT, FitPowerLog, FormatScores, PlotLogFit
-    from eaplan_drake.powerlog import PowerLogError, ReadPeriodLog, ReadPowerLog
+    from eaplan_drake.logfit.fit import NOISE_CRITERIA_TEXT, FitPowerLog, FormatScores, PlotLogFit
+    from eaplan_drake.logfit.powerlog import PowerLogError, ReadPeriodLog, ReadPowerLog
     from eaplan_drake.simulation import _AtomicWrite
 
     if args.period is not None and args.period_log:

@@ -10,8 +10,10 @@
          │                  └──────────► Battery ───────────────┘               │ c2
          └──────────────────────────────────────────────────────────────────────┘
 
-The planner's policy is ``scenario.planner.policy`` (:func:`~eaplan_drake.policies.MakePolicy`) or
-any :class:`~eaplan_drake.planner.PlannerPolicy` passed as ``policy``; a static plan (paper 003
+The planner's policy is ``scenario.planner.policy``
+(:func:`~eaplan_drake.planning.policies.MakePolicy`) or
+any :class:`~eaplan_drake.planning.planner.PlannerPolicy` passed as ``policy``; a static plan
+(paper 003
 plans I and II) is the same diagram with ``planner.policy: static``. Every system is named
 (``plant``, ``sequencer``, ``guidance``, ``computation``, ``total_power``, ``sensor``,
 ``estimator``, ``battery``, ``planner``, ``wind``, ``kinematics_demux``), the key signals are
@@ -32,17 +34,17 @@ from pydrake.systems.primitives import (
     Multiplexer,
 )
 
-from eaplan_drake.battery import Battery, IsBrownout, PowerBudget
-from eaplan_drake.computation import ComputationLoad
-from eaplan_drake.estimator import EnergyEstimator
-from eaplan_drake.guidance import VectorFieldGuidance
+from eaplan_drake.energy.battery import Battery, IsBrownout, PowerBudget
+from eaplan_drake.energy.computation import ComputationLoad
+from eaplan_drake.energy.estimator import EnergyEstimator
+from eaplan_drake.energy.sensor import AveragedVariance, PowerSensor
+from eaplan_drake.flight.guidance import VectorFieldGuidance
+from eaplan_drake.flight.plant import FixedWingPlant, MakeFixedWingPlant, MaxHeadingRate
+from eaplan_drake.flight.sequencer import StageSequencer
 from eaplan_drake.params import EstimatorParams, Scenario
-from eaplan_drake.planner import PlannerPolicy, PlannerScheduler
-from eaplan_drake.plant import FixedWingPlant, MakeFixedWingPlant, MaxHeadingRate
-from eaplan_drake.policies import MakePolicy
+from eaplan_drake.planning.planner import PlannerPolicy, PlannerScheduler
+from eaplan_drake.planning.policies import MakePolicy
 from eaplan_drake.resolve import ResolvedScenario, ResolveScenario, StartParameters
-from eaplan_drake.sensor import AveragedVariance, PowerSensor
-from eaplan_drake.sequencer import StageSequencer
 
 __all__ = [
     "LOGGED_SIGNALS",
@@ -155,9 +157,9 @@ def AddGuidedAircraft(
 ) -> GuidedAircraft:
     """Adds and wires the flight side of ``scenario`` to ``builder``: ``wind``
     (a constant w [m/s], :meth:`~eaplan_drake.params.WindParams.Vector`), ``plant``
-    (:class:`~eaplan_drake.plant.FixedWingPlant`), ``sequencer``
-    (:class:`~eaplan_drake.sequencer.StageSequencer` over ``plan``, a plan source),
-    ``guidance`` (:class:`~eaplan_drake.guidance.VectorFieldGuidance`) and
+    (:class:`~eaplan_drake.flight.plant.FixedWingPlant`), ``sequencer``
+    (:class:`~eaplan_drake.flight.sequencer.StageSequencer` over ``plan``, a plan source),
+    ``guidance`` (:class:`~eaplan_drake.flight.guidance.VectorFieldGuidance`) and
     ``kinematics_demux`` (a ``Demultiplexer`` handing (x, y) of the plant's kinematics to the
     sequencer)::
 
@@ -223,11 +225,11 @@ def AddEnergyLoop(
     computation_parameters: list[float] | None = None,
 ) -> EnergyLoop:
     """Adds and wires the energy side of ``scenario`` to ``builder``: ``computation``
-    (:class:`~eaplan_drake.computation.ComputationLoad` over ``table``), ``total_power`` (an
+    (:class:`~eaplan_drake.energy.computation.ComputationLoad` over ``table``), ``total_power`` (an
     ``Adder``: y = motion power + computation power [W]), ``sensor``
-    (:class:`~eaplan_drake.sensor.PowerSensor`, seeded by ``scenario.SensorSeed()``),
-    ``estimator`` (:class:`~eaplan_drake.estimator.EnergyEstimator`) and ``battery``
-    (:class:`~eaplan_drake.battery.Battery`)::
+    (:class:`~eaplan_drake.energy.sensor.PowerSensor`, seeded by ``scenario.SensorSeed()``),
+    ``estimator`` (:class:`~eaplan_drake.energy.estimator.EnergyEstimator`) and ``battery``
+    (:class:`~eaplan_drake.energy.battery.Battery`)::
 
         motion_power ─► total_power ◄─ computation      period ─► estimator
                           │ y (Adder)
@@ -297,7 +299,7 @@ def AddPlannerScheduler(
     policy: PlannerPolicy,
     initial_parameters: tuple[float, list[float]],
 ) -> PlannerScheduler:
-    """Adds the ``planner`` (:class:`~eaplan_drake.planner.PlannerScheduler` running
+    """Adds the ``planner`` (:class:`~eaplan_drake.planning.planner.PlannerScheduler` running
     ``policy``) and closes the loop: it reads the estimator's coefficients and their variance,
     the battery's SoC and the sequencer's remaining time, period and coverage, and drives the
     sequencer's c1 and the computation load's c2. ``initial_parameters`` = (c1 [m²], c2) flown
@@ -423,9 +425,9 @@ def MakeEaplanDiagram(
     :func:`AddSignalLoggers`.
 
     ``plan_source`` replaces the scenario's plan (any plan source, e.g. a
-    :class:`~eaplan_drake.planfile.PlanFile`); ``policy`` replaces the policy that
+    :class:`~eaplan_drake.flight.planfile.PlanFile`); ``policy`` replaces the policy that
     ``scenario.planner.policy`` names (a Python user's own
-    :class:`~eaplan_drake.planner.PlannerPolicy`); ``log_period`` [s] overrides
+    :class:`~eaplan_drake.planning.planner.PlannerPolicy`); ``log_period`` [s] overrides
     ``scenario.simulation.log_period``, 0 disables the loggers.
     """
     resolved = scenario if isinstance(scenario, ResolvedScenario) else ResolveScenario(scenario)
@@ -469,7 +471,7 @@ def MakeEaplanDiagram(
 
 def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
     """The policy ``scenario.planner.policy`` names, as :func:`MakeEaplanDiagram` builds it for
-    ``table`` (:class:`~eaplan_drake.computation.ComputationTable`) and ``plan`` (the plan
+    ``table`` (:class:`~eaplan_drake.energy.computation.ComputationTable`) and ``plan`` (the plan
     source): the Eq. 10 line through t(c1) at the bounds in the scenario's wind, and the c1 grid
     of the sequencer's ``remaining_time``."""
     w = scenario.wind.Vector()
@@ -489,7 +491,7 @@ def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
 def EstimatorOfSensor(estimator: EstimatorParams, readings_per_sample: int) -> EstimatorParams:
     """The estimator parameters behind a sensor that averages n = ``readings_per_sample``
     readings per sample: R = ``measurement_noise`` / n [W²]
-    (:func:`~eaplan_drake.sensor.AveragedVariance`); ``estimator`` itself when n = 1."""
+    (:func:`~eaplan_drake.energy.sensor.AveragedVariance`); ``estimator`` itself when n = 1."""
     if readings_per_sample == 1:
         return estimator
     return dc.replace(

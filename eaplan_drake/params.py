@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from eaplan_drake.coverage import CheckCoverageGeometry
+from eaplan_drake.flight.coverage import CheckCoverageGeometry
 
 __all__ = [
     "BatteryFault",
@@ -420,7 +420,8 @@ class SensorParams:
     """False (default): each sample is the power at the sample time plus noise of σ =
     ``noise_std``. True: each sample is the mean of the n = native_rate / rate readings of its
     interval, the mean power over it plus noise of σ/√n, and the estimator's R becomes
-    ``estimator.measurement_noise`` / n (:mod:`eaplan_drake.sensor`): a sensor reporting below
+    ``estimator.measurement_noise`` / n (:mod:`eaplan_drake.energy.sensor`): a sensor reporting
+    below
     its native rate, or a simulation on a coarser ``simulation.max_step``, then loses no
     information. Needs rate <= 1 / max_step and estimator.rate <= rate."""
     native_rate: float = 100.0
@@ -461,7 +462,7 @@ class EstimatorParams:
     aperiodic_time_constant: float = 0.0
     """τ of the aperiodic (AR(1), first-order Gauss–Markov) load state d [s]; 0 = no such state
     (the paper's model, the default), ``.inf`` = random walk. Opt-in: see
-    :mod:`eaplan_drake.energy_model`; the planner's prediction uses the same model."""
+    :mod:`eaplan_drake.energy.fourier`; the planner's prediction uses the same model."""
     aperiodic_noise: float = 0.0
     """q_d, intensity of the aperiodic load's driving noise [W²/s] (stationary variance
     q_d τ / 2); used only when aperiodic_time_constant > 0."""
@@ -491,25 +492,26 @@ class EstimatorParams:
         )
 
     def ModelOrder(self, order: int):
-        """The ``order`` argument of :mod:`eaplan_drake.energy_model` for Fourier order r: r
+        """The ``order`` argument of :mod:`eaplan_drake.energy.fourier` for Fourier order r: r
         itself (paper model) or ``AugmentedOrder(r, τ)`` when the aperiodic state is on."""
         if self.aperiodic_time_constant > 0.0:
-            from eaplan_drake.energy_model import AugmentedOrder
+            from eaplan_drake.energy.fourier import AugmentedOrder
 
             return AugmentedOrder(int(order), float(self.aperiodic_time_constant))
         return int(order)
 
 
 POLICIES = ("mpc", "paper", "greedy", "greedy_authors", "static", "hindsight")
-"""Names of the planner policies (``planner.policy``); see :mod:`eaplan_drake.policies`."""
+"""Names of the planner policies (``planner.policy``); see :mod:`eaplan_drake.planning.policies`."""
 
 
 @dc.dataclass
 class PlannerParams:
     """Planner-scheduler: which policy decides c1 and c2, and its parameters.
 
-    ``policy`` selects (see :mod:`eaplan_drake.policies`): ``mpc`` (default: the mission-feasible
-    MPC of :mod:`eaplan_drake.mpc`), ``paper`` (paper 003 Eq. 16 + Alg. 2 as published, the
+    ``policy`` selects (see :mod:`eaplan_drake.planning.policies`): ``mpc`` (default: the
+    mission-feasible
+    MPC of :mod:`eaplan_drake.planning.mpc`), ``paper`` (paper 003 Eq. 16 + Alg. 2 as published, the
     reproduction), ``greedy`` (one-step rule fed the MPC's signals), ``greedy_authors`` (the
     authors' MATLAB rule), ``static`` (hold the initial parameters) and ``hindsight`` (the best
     constant pair of a grid, each flown on the same world).
@@ -1006,7 +1008,7 @@ def ResolveFilePaths(scenario: Scenario, base_dir: str | Path) -> Scenario:
     """``scenario`` with a relative ``computation.table`` / ``coverage.plan_file`` path made
     relative to ``base_dir`` (the scenario file's folder) instead of the current directory;
     packaged names (``pednet_jetson_nano``, ``reference``, …) stay. Modifies and returns it."""
-    from eaplan_drake.computation import PACKAGED_TABLES
+    from eaplan_drake.energy.computation import PACKAGED_TABLES
 
     base = Path(base_dir)
     table = scenario.computation.table

@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from eaplan_drake.computation import ComputationTable, LoadComputationTable
-from eaplan_drake.coverage import PlanSource
+from eaplan_drake.energy.computation import ComputationTable, LoadComputationTable
+from eaplan_drake.flight.coverage import PlanSource
+from eaplan_drake.flight.paths import PathFunction
+from eaplan_drake.flight.planfile import MakePlanSource, PlanFile
+from eaplan_drake.flight.plant import MaxHeadingRate
 from eaplan_drake.params import ResolveFilePaths, Scenario, ScenarioError
-from eaplan_drake.paths import PathFunction
-from eaplan_drake.planfile import MakePlanSource, PlanFile
-from eaplan_drake.plant import MaxHeadingRate
 
 __all__ = [
     "MAX_PLAN_STAGES",

@@ -38,11 +38,11 @@ from pathlib import Path
 import numpy as np
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator, SimulatorStatus
 
-from eaplan_drake.battery import STATUS_BROWNOUT, STATUS_RESERVE
 from eaplan_drake.diagram import LoggedSignals, MakeEaplanDiagram
+from eaplan_drake.energy.battery import STATUS_BROWNOUT, STATUS_RESERVE
+from eaplan_drake.flight.plant import NonFiniteCommandError
 from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
-from eaplan_drake.planner import PlannerPolicy
-from eaplan_drake.plant import NonFiniteCommandError
+from eaplan_drake.planning.planner import PlannerPolicy
 from eaplan_drake.resolve import ResolveScenario
 
 __all__ = [
@@ -247,9 +247,9 @@ def SaveFlight(
 ) -> list[Path]:
     """Writes a flight's result directory as a unit (:func:`ResultDirectory`): ``log.npz``,
     ``summary.json``, ``flight.png`` and, with ``replay``, the Meshcat replay ``replay.html``
-    (:func:`~eaplan_drake.replay.SaveFlightReplay`); returns the paths of the figure and the
+    (:func:`~eaplan_drake.output.replay.SaveFlightReplay`); returns the paths of the figure and the
     replay."""
-    from eaplan_drake.plots import SaveFlightPlots
+    from eaplan_drake.output.plots import SaveFlightPlots
 
     _CheckType(log, FlightLog, "log", "a FlightLog (from Simulate)")
     _CheckType(scenario, Scenario, "scenario", "a Scenario")
@@ -258,7 +258,7 @@ def SaveFlight(
         log.Save(tmp)
         written = [SaveFlightPlots(log, scenario, tmp)]
         if replay:
-            from eaplan_drake.replay import SaveFlightReplay
+            from eaplan_drake.output.replay import SaveFlightReplay
 
             written.append(SaveFlightReplay(log, scenario, tmp / "replay.html"))
     return [final / f.name for f in written]
@@ -321,7 +321,7 @@ def Simulate(
 
     ``progress(t, soc, covered)`` (covered = the survey fraction flown, 1 − coverage_remaining)
     is called about every ``progress_interval`` simulated seconds
-    (:class:`~eaplan_drake.progress.FlightProgress` draws it).
+    (:class:`~eaplan_drake.output.progress.FlightProgress` draws it).
     ``policy`` replaces the planner policy the scenario names (see
     :func:`~eaplan_drake.diagram.MakeEaplanDiagram`). With ``planner.policy: hindsight`` the
     result is the best flight of :func:`FlyHindsight` (several static flights).
@@ -549,7 +549,7 @@ def HindsightGrid(scenario: Scenario) -> list[tuple[float, np.ndarray]]:
     """The constant pairs (c1 [m²], c2 [table units]) of the hindsight reference, best quality
     first: ``planner.hindsight_path_parameters`` values of c1 equally spaced over its bounds ×
     every grid point of the computation table (ties: the lower power first)."""
-    from eaplan_drake.computation import LoadComputationTable
+    from eaplan_drake.energy.computation import LoadComputationTable
 
     table = LoadComputationTable(scenario.computation.table)
     lo, hi = (float(v) for v in scenario.planner.path_parameter_bounds)

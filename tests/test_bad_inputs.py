@@ -18,8 +18,8 @@ import pytest
 
 from eaplan_drake.cli import main as cli_main
 from eaplan_drake.diagram import LOGGED_SIGNALS
+from eaplan_drake.flight.plant import FixedWingDynamics, NonFiniteCommandError
 from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
-from eaplan_drake.plant import FixedWingDynamics, NonFiniteCommandError
 from eaplan_drake.resolve import PeakCircleHeadingRate, ResolveScenario, TriggerDistance
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -430,8 +430,8 @@ def test_plant_refuses_a_non_finite_command():
 
 
 def test_plant_system_refuses_a_non_finite_command():
+    from eaplan_drake.flight.plant import FixedWingPlant
     from eaplan_drake.params import VehicleParams
-    from eaplan_drake.plant import FixedWingPlant
 
     plant = FixedWingPlant(VehicleParams())
     context = plant.CreateDefaultContext()
@@ -459,7 +459,7 @@ def test_peak_circle_heading_rate_matches_the_analytic_cases():
 
 
 def test_trigger_distance_of_lines_and_circles():
-    from eaplan_drake.paths import Circle, Line
+    from eaplan_drake.flight.paths import Circle, Line
 
     line = Line([0.0, 0.0], [0.0, 1.0], k_e=0.05).normalised()
     assert TriggerDistance(line, [3.0, -2.5]) == pytest.approx(2.5, abs=1e-12)
@@ -612,7 +612,7 @@ def test_kill_during_a_run_leaves_no_half_written_file(tmp_path):
 def test_a_non_finite_estimate_ends_the_flight_with_numerical_failure(monkeypatch):
     """An estimator whose covariance turns NaN after 3 s (a stand-in for any numerical
     breakdown) ends the flight at the next check with status numerical_failure."""
-    from eaplan_drake.estimator import EnergyEstimator
+    from eaplan_drake.energy.estimator import EnergyEstimator
     from eaplan_drake.simulation import NUMERICS_CHECK_PERIOD, Simulate
 
     update = EnergyEstimator._Update

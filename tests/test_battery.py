@@ -8,7 +8,7 @@ from pydrake.systems.analysis import Simulator, SimulatorStatus
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from eaplan_drake.battery import (
+from eaplan_drake.energy.battery import (
     STATUS_BROWNOUT,
     STATUS_RESERVE,
     Battery,
@@ -21,8 +21,8 @@ from eaplan_drake.battery import (
     SocDerivative,
     TimeToSoc,
 )
+from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
 from eaplan_drake.params import BatteryFault, BatteryParams
-from eaplan_drake.powerlog import REFERENCE_ENV, ReferenceDirectory
 
 V, R, Q, KB = 14.8, 0.0012, 3.2, 0.00183
 

@@ -16,7 +16,7 @@ from pydrake.systems.primitives import (
     ZeroOrderHold,
 )
 
-from eaplan_drake.computation import (
+from eaplan_drake.energy.computation import (
     PACKAGED_TABLES,
     ComputationLoad,
     ComputationTable,

@@ -7,7 +7,7 @@ import pickle
 import numpy as np
 import pytest
 
-from eaplan_drake.coverage import (
+from eaplan_drake.flight.coverage import (
     APPROACH,
     CoveragePolygon,
     CoverageTime,
@@ -23,8 +23,8 @@ from eaplan_drake.coverage import (
     TurningRadius2,
     ZamboniCoverage,
 )
+from eaplan_drake.flight.paths import Circle
 from eaplan_drake.params import CoverageParams, GuidanceParams, ScenarioError, VehicleParams
-from eaplan_drake.paths import Circle
 
 V_A = 15.0
 R2_MIN = math.sqrt(3900.0)  # r2(−1000)

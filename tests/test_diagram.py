@@ -8,7 +8,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.primitives import LogVectorOutput
 
 from eaplan_drake.diagram import LOGGED_SIGNALS, LoggedSignals, MakeEaplanDiagram
-from eaplan_drake.graphviz import DiagramDots
+from eaplan_drake.output.graphviz import DiagramDots
 from eaplan_drake.params import LoadScenario, Scenario
 
 DIAGRAMS = Path(__file__).resolve().parents[1] / "diagrams"
@@ -93,8 +93,8 @@ def test_the_builders_make_an_open_loop_flight_at_constant_parameters():
     the Rint closed form says for the true power drawn."""
     from pydrake.systems.framework import DiagramBuilder
 
-    from eaplan_drake.battery import SocDerivative
     from eaplan_drake.diagram import AddEnergyLoop, AddGuidedAircraft
+    from eaplan_drake.energy.battery import SocDerivative
     from eaplan_drake.resolve import ResolveScenario
 
     resolved = ResolveScenario(Scenario())
@@ -135,7 +135,7 @@ def test_the_builders_make_an_open_loop_flight_at_constant_parameters():
 
 
 def test_a_plan_source_passed_to_the_diagram_is_the_one_flown():
-    from eaplan_drake.planfile import LoadPlanFile
+    from eaplan_drake.flight.planfile import LoadPlanFile
 
     s = Scenario()
     plan = LoadPlanFile(

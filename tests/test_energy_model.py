@@ -8,7 +8,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from eaplan_drake.energy_model import (
+from eaplan_drake.energy.fourier import (
     DiscreteFourierMatrices,
     EstimatePeriod,
     FitFourierSeries,
@@ -16,7 +16,7 @@ from eaplan_drake.energy_model import (
     FourierMatrices,
     FourierStateFromCoefficients,
 )
-from eaplan_drake.powerlog import REFERENCE_ENV, ReferenceDirectory
+from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
 
 REFERENCE = REFERENCE_DIR = ReferenceDirectory()
 
@@ -353,7 +353,7 @@ def test_model_bad_constructor_arguments():
 
 
 def test_augmented_order_sizes_and_matrices():
-    from eaplan_drake.energy_model import (
+    from eaplan_drake.energy.fourier import (
         AperiodicDecay,
         AperiodicProcessNoise,
         AugmentedOrder,
@@ -392,7 +392,7 @@ def test_augmented_order_sizes_and_matrices():
 
 
 def test_known_input_step_and_transition_cache():
-    from eaplan_drake.energy_model import InputMemory, KnownInputStep, TransitionMatrices
+    from eaplan_drake.energy.fourier import InputMemory, KnownInputStep, TransitionMatrices
 
     memory = InputMemory(np.array([np.nan, 46.0]))
     assert KnownInputStep(memory, 5.0, 46.0) == 0.0  # first finite g: no jump
@@ -410,7 +410,7 @@ def test_known_input_step_and_transition_cache():
 
 
 def test_process_noise_matrix_is_the_models_q():
-    from eaplan_drake.energy_model import AugmentedOrder, ProcessNoiseMatrix
+    from eaplan_drake.energy.fourier import AugmentedOrder, ProcessNoiseMatrix
 
     np.testing.assert_array_equal(
         ProcessNoiseMatrix(2, 1e-6, 3e-6, 0.5, 0.01), np.diag([4e-6, 1e-6, 1e-6, 1e-6, 1e-6])
@@ -427,7 +427,7 @@ def test_process_noise_matrix_is_the_models_q():
 
 
 def test_free_response_decays_the_aperiodic_load_as_its_model_says():
-    from eaplan_drake.energy_model import AugmentedOrder, FourierOutputMatrix, FreeResponseMatrix
+    from eaplan_drake.energy.fourier import AugmentedOrder, FourierOutputMatrix, FreeResponseMatrix
 
     T, step, n = 46.0, 0.5, 300
     q = np.array([30.0, 2.0, -1.0, 0.5, 0.3, 0.0, 0.0])
@@ -448,7 +448,7 @@ def test_free_response_decays_the_aperiodic_load_as_its_model_says():
 
 
 def test_period_with_confidence_accepts_a_periodic_signal_and_refuses_noise():
-    from eaplan_drake.energy_model import EstimatePeriodWithConfidence
+    from eaplan_drake.energy.fourier import EstimatePeriodWithConfidence
 
     rng = np.random.default_rng(2)
     t = np.arange(0.0, 400.0, 0.2)

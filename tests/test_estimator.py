@@ -12,7 +12,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
 
-from eaplan_drake.estimator import EnergyEstimator, KalmanPredict, KalmanStep, KalmanUpdate
+from eaplan_drake.energy.estimator import EnergyEstimator, KalmanPredict, KalmanStep, KalmanUpdate
 from eaplan_drake.params import EstimatorParams
 
 H = 0.01  # 100 Hz
@@ -461,9 +461,9 @@ def test_closed_loop_carries_the_aperiodic_state_to_the_planner():
     """With τ set in the scenario the estimator, the planner's input and its prediction all use
     the augmented model (m = 2r + 2); the prediction lets d decay as exp(−t/τ)."""
     from eaplan_drake.diagram import MakeEaplanDiagram
-    from eaplan_drake.energy_model import AugmentedOrder
+    from eaplan_drake.energy.fourier import AugmentedOrder
     from eaplan_drake.params import Scenario
-    from eaplan_drake.planner import FreeResponse
+    from eaplan_drake.planning.planner import FreeResponse
 
     scenario = Scenario()
     scenario.estimator.aperiodic_time_constant = 15.0

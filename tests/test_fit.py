@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from eaplan_drake.cli import main
-from eaplan_drake.energy_model import AugmentedOrder, DiscreteEnergyMatrices, OutputMatrix
-from eaplan_drake.estimator import KalmanPredict, KalmanUpdate
-from eaplan_drake.fit import (
+from eaplan_drake.energy.estimator import KalmanPredict, KalmanUpdate
+from eaplan_drake.energy.fourier import AugmentedOrder, DiscreteEnergyMatrices, OutputMatrix
+from eaplan_drake.logfit.fit import (
     HORIZONS_SUFFIX,
     NOISE_CRITERIA,
     NOISE_CRITERIA_TEXT,
@@ -35,14 +35,14 @@ from eaplan_drake.fit import (
     SyntheticPower,
     UniformPowerSeries,
 )
-from eaplan_drake.params import LoadScenario
-from eaplan_drake.powerlog import (
+from eaplan_drake.logfit.powerlog import (
     REFERENCE_ENV,
     PowerLogError,
     ReadPeriodLog,
     ReadPowerLog,
     ReferenceDirectory,
 )
+from eaplan_drake.params import LoadScenario
 
 DATA = resources.files("eaplan_drake") / "data"
 T = 46.0
@@ -321,7 +321,7 @@ def test_cli_fit_bad_file_is_one_line(tmp_path, capsys):
     reason=f"reference data absent (set {REFERENCE_ENV} to the seewald2022 directory)",
 )
 def test_opterra_throttle_log_reads_and_has_the_track_period():
-    from eaplan_drake.energy_model import EstimatePeriodWithConfidence
+    from eaplan_drake.energy.fourier import EstimatePeriodWithConfidence
 
     log = ReadPowerLog(ReferenceDirectory() / "opterra_flight" / "pprz_throttle.csv")
     assert log.times[-1] == pytest.approx(319.5)
@@ -506,7 +506,7 @@ def test_cli_fit_bad_period_log_is_one_line(tmp_path, capsys):
 
 
 def test_model_names():
-    from eaplan_drake.fit import ModelName
+    from eaplan_drake.logfit.fit import ModelName
 
     ar = NoiseParameters(1.0, 1e-6, 0.0, 12.0, 0.1)
     assert ModelName(4, ar) == "r=4+AR(1)"

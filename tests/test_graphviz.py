@@ -1,7 +1,7 @@
 """The top-level loop picture: systems and the signals between them, nothing else."""
 
 from eaplan_drake.diagram import LOGGED_SIGNALS
-from eaplan_drake.graphviz import DiagramDots, LoopDot
+from eaplan_drake.output.graphviz import DiagramDots, LoopDot
 
 
 def test_loop_dot_merges_the_signals_between_two_systems_into_one_edge():

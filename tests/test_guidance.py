@@ -8,22 +8,22 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from eaplan_drake.guidance import (
+from eaplan_drake.flight.guidance import (
     CheckWindBelowAirspeed,
     DesiredCourseRate,
     GuidingVectorField,
     HeadingRateCommand,
     VectorFieldGuidance,
 )
-from eaplan_drake.params import GuidanceParams, ScenarioError, VehicleParams
-from eaplan_drake.paths import Circle, Line
-from eaplan_drake.plant import (
+from eaplan_drake.flight.paths import Circle, Line
+from eaplan_drake.flight.plant import (
     FixedWingArcPlant,
     FixedWingDynamics,
     FixedWingPlant,
     GroundVelocity,
     MaxHeadingRate,
 )
+from eaplan_drake.params import GuidanceParams, ScenarioError, VehicleParams
 
 VA = 15.0
 WIND = 5.0

@@ -1,4 +1,5 @@
-"""Tests of the mission-feasible MPC (eaplan_drake.mpc): exact prediction against the Rint closed
+"""Tests of the mission-feasible MPC (eaplan_drake.planning.mpc): exact prediction against the Rint
+closed
 form, the discrete problem, the NLP's agreement with brute force, recursive feasibility, the
 margin and the deterministic fallback."""
 
@@ -8,14 +9,14 @@ import numpy as np
 import pytest
 from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 
-from eaplan_drake.battery import SocAfter
-from eaplan_drake.computation import LoadComputationTable
-from eaplan_drake.coverage import MakeCoveragePlan
-from eaplan_drake.mpc import MissionProblem
+from eaplan_drake.energy.battery import SocAfter
+from eaplan_drake.energy.computation import LoadComputationTable
+from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.params import BatteryParams, CoverageParams, PlannerParams, VehicleParams
-from eaplan_drake.planner import PlannerObservation
-from eaplan_drake.policies import MakePolicy, MpcPolicy
-from eaplan_drake.worlds import RandomPlannerObservation
+from eaplan_drake.planning.mpc import MissionProblem
+from eaplan_drake.planning.planner import PlannerObservation
+from eaplan_drake.planning.policies import MakePolicy, MpcPolicy
+from eaplan_drake.studies.worlds import RandomPlannerObservation
 
 ORDER = 3
 PERIOD = 46.0

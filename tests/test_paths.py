@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from eaplan_drake.paths import DESCRIPTOR_SIZE, Circle, Line, PathFunction
+from eaplan_drake.flight.paths import DESCRIPTOR_SIZE, Circle, Line, PathFunction
 
 RNG = np.random.default_rng(7)
 

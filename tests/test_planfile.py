@@ -8,9 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eaplan_drake.coverage import APPROACH, ArcAngle, ZamboniCoverage
-from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
-from eaplan_drake.planfile import (
+from eaplan_drake.flight.coverage import APPROACH, ArcAngle, ZamboniCoverage
+from eaplan_drake.flight.planfile import (
     REFERENCE_PLAN,
     LoadPlanFile,
     MakePlanSource,
@@ -20,7 +19,8 @@ from eaplan_drake.planfile import (
     QuadraticForm,
     ReadPlanFile,
 )
-from eaplan_drake.powerlog import REFERENCE_ENV, ReferenceDirectory
+from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
+from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
 
 REFERENCE_DIR = ReferenceDirectory()
 DYN_PLAN = REFERENCE_DIR / "dyn_plan_specification.pln"

@@ -11,7 +11,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from eaplan_drake.battery import (
+from eaplan_drake.energy.battery import (
     MaxDeliverablePower,
     PowerBudget,
     RintCurrent,
@@ -19,10 +19,10 @@ from eaplan_drake.battery import (
     SocDerivative,
     TimeToSoc,
 )
-from eaplan_drake.computation import LoadComputationTable
-from eaplan_drake.coverage import ScalingFactors
+from eaplan_drake.energy.computation import LoadComputationTable
+from eaplan_drake.flight.coverage import ScalingFactors
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.planner import (
+from eaplan_drake.planning.planner import (
     ChoosePathParameter,
     CoverageTimeModel,
     FreeResponse,
@@ -31,14 +31,14 @@ from eaplan_drake.planner import (
     PlannerScheduler,
     SimpsonSoc,
 )
-from eaplan_drake.policies import MakePolicy
-from eaplan_drake.prediction import (
+from eaplan_drake.planning.policies import MakePolicy
+from eaplan_drake.planning.prediction import (
     SimpsonSocSensitivity,
     SimpsonSocSteps,
     SocDerivativeSlope,
     StepLoads,
 )
-from eaplan_drake.prediction import TimeToReserve as PureTimeToReserve
+from eaplan_drake.planning.prediction import TimeToReserve as PureTimeToReserve
 
 ORDER = 3
 PERIOD = 46.0

@@ -9,10 +9,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from eaplan_drake.guidance import HeadingRateCommand
-from eaplan_drake.params import MotionPowerParams, ScenarioError, SimulationParams, VehicleParams
-from eaplan_drake.paths import Circle, Line
-from eaplan_drake.plant import (
+from eaplan_drake.flight.guidance import HeadingRateCommand
+from eaplan_drake.flight.paths import Circle, Line
+from eaplan_drake.flight.plant import (
     GRAVITY,
     ArcStep,
     FixedWingArcPlant,
@@ -29,6 +28,7 @@ from eaplan_drake.plant import (
     SaturatedHeadingRate,
     WrapToPi,
 )
+from eaplan_drake.params import MotionPowerParams, ScenarioError, SimulationParams, VehicleParams
 
 VA = 15.0
 WIND = 5.0

@@ -6,9 +6,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from eaplan_drake.coverage import MakeCoveragePlan
-from eaplan_drake.params import BatteryFault, Scenario
-from eaplan_drake.plots import (
+from eaplan_drake.flight.coverage import MakeCoveragePlan
+from eaplan_drake.output.plots import (
     PlotFlight,
     PlotPolicyComparison,
     RobustRange,
@@ -18,6 +17,7 @@ from eaplan_drake.plots import (
     UncoveredArea,
     UncoveredRadius,
 )
+from eaplan_drake.params import BatteryFault, Scenario
 from eaplan_drake.simulation import FlightLog
 
 
@@ -171,7 +171,7 @@ def test_policy_comparison_has_a_path_panel_per_policy():
 
 
 def test_draw_plan_labels_a_solid_stage():
-    from eaplan_drake.plots import DrawPlan
+    from eaplan_drake.output.plots import DrawPlan
 
     plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0, k_e=0.05)
     fig, ax = plt.subplots()

@@ -8,12 +8,12 @@ import time
 import numpy as np
 import pytest
 
-from eaplan_drake.computation import LoadComputationTable
-from eaplan_drake.mpc import MissionProgram
+from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.params import BatteryFault, Scenario
-from eaplan_drake.planner import PlannerDecision, PlannerPolicy
+from eaplan_drake.planning.mpc import MissionProgram
+from eaplan_drake.planning.planner import PlannerDecision, PlannerPolicy
 from eaplan_drake.simulation import FlyHindsight, HindsightGrid, Simulate
-from eaplan_drake.worlds import DrawWorld, WithPolicy
+from eaplan_drake.studies.worlds import DrawWorld, WithPolicy
 
 TABLE = LoadComputationTable("pednet_jetson_nano")
 
@@ -27,8 +27,8 @@ def _Short(policy="mpc", time_limit=40.0):
 
 
 def _MpcPolicy(scenario):
-    from eaplan_drake.coverage import MakeCoveragePlan
     from eaplan_drake.diagram import MakeScenarioPolicy
+    from eaplan_drake.flight.coverage import MakeCoveragePlan
 
     plan = MakeCoveragePlan(scenario.coverage, scenario.vehicle, c1=0.0, k_e=scenario.guidance.k_e)
     return MakeScenarioPolicy(scenario, TABLE, plan)

@@ -11,8 +11,8 @@ import pytest
 
 from eaplan_drake.cli import _FormatSummary
 from eaplan_drake.cli import main as cli_main
+from eaplan_drake.output.progress import FlightFraction, FlightProgress, FormatDuration, ProgressBar
 from eaplan_drake.params import Scenario
-from eaplan_drake.progress import FlightFraction, FlightProgress, FormatDuration, ProgressBar
 
 ROOT = Path(__file__).resolve().parents[1]
 

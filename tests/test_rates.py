@@ -20,7 +20,7 @@ from eaplan_drake.rates import (
     WithRates,
 )
 from eaplan_drake.simulation import LoadNamedScenario, Simulate
-from eaplan_drake.sweep import LoadStudy, StudyFlights
+from eaplan_drake.studies.sweep import LoadStudy, StudyFlights
 
 
 def test_rescaled_process_noise_keeps_the_variance_per_second():

@@ -7,8 +7,14 @@ import subprocess
 import numpy as np
 import pytest
 
+from eaplan_drake.output.replay import (
+    ArrowOutline,
+    PathChunks,
+    ReplayFrames,
+    Ribbon,
+    SaveFlightReplay,
+)
 from eaplan_drake.params import Scenario
-from eaplan_drake.replay import ArrowOutline, PathChunks, ReplayFrames, Ribbon, SaveFlightReplay
 from eaplan_drake.simulation import FlightLog
 
 pytestmark = pytest.mark.slow

@@ -9,8 +9,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, Sine
 
-from eaplan_drake.params import SensorParams
-from eaplan_drake.sensor import (
+from eaplan_drake.energy.sensor import (
     BLOCK_SIZE,
     AveragedNoiseStd,
     AveragedSample,
@@ -22,6 +21,7 @@ from eaplan_drake.sensor import (
     PowerSensor,
     ReadingsPerSample,
 )
+from eaplan_drake.params import SensorParams
 
 AMPLITUDE, OMEGA, PHASE, OFFSET = 4.0, 0.7, 0.3, 6.0  # computation power 6 W + 4 sin(0.7 t + 0.3)
 MOTION = 25.0

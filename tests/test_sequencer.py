@@ -9,12 +9,12 @@ from pydrake.systems.framework import BasicVector, DiagramBuilder, EventStatus, 
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from eaplan_drake.coverage import StageTime, StaticPlan, TurningRadius2, ZamboniCoverage
 from eaplan_drake.diagram import AddGuidedAircraft
+from eaplan_drake.flight.coverage import StageTime, StaticPlan, TurningRadius2, ZamboniCoverage
+from eaplan_drake.flight.paths import DESCRIPTOR_SIZE, PathFunction
+from eaplan_drake.flight.planfile import LoadPlanFile
+from eaplan_drake.flight.sequencer import StageSequencer, Triggered
 from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
-from eaplan_drake.paths import DESCRIPTOR_SIZE, PathFunction
-from eaplan_drake.planfile import LoadPlanFile
-from eaplan_drake.sequencer import StageSequencer, Triggered
 
 V_A = 15.0
 PORTS_IN = {"position": 2, "path_parameters": 1}

@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from eaplan_drake.battery import STATUS_BROWNOUT, STATUS_RESERVE
-from eaplan_drake.graphviz import CanonicalDot
+from eaplan_drake.energy.battery import STATUS_BROWNOUT, STATUS_RESERVE
+from eaplan_drake.output.graphviz import CanonicalDot
 from eaplan_drake.params import LoadScenario
 from eaplan_drake.simulation import (
     EndReason,

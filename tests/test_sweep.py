@@ -1,4 +1,5 @@
-"""Studies (eaplan_drake.sweep): reproducible flights, serial = parallel, resume after a kill,
+"""Studies (eaplan_drake.studies.sweep): reproducible flights, serial = parallel, resume after a
+kill,
 error rows, Dask, the report."""
 
 import json
@@ -13,7 +14,7 @@ import distributed
 import pytest
 
 from eaplan_drake.params import ScenarioError
-from eaplan_drake.sweep import (
+from eaplan_drake.studies.sweep import (
     FlyRow,
     LoadStudy,
     RunStudy,
@@ -94,7 +95,7 @@ def test_a_killed_study_resumes_to_the_same_rows(study, tmp_path):
     reference = RunStudy(st, tmp_path / "ref", directory=d, n_jobs=1, progress=False)
     out = tmp_path / "killed"
     code = (
-        "from eaplan_drake.sweep import LoadStudy, RunStudy\n"
+        "from eaplan_drake.studies.sweep import LoadStudy, RunStudy\n"
         f"st, d = LoadStudy({str(d / 'tiny.yaml')!r})\n"
         f"RunStudy(st, {str(out)!r}, directory=d, n_jobs=1, progress=False)\n"
     )

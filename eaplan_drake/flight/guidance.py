@@ -1,7 +1,8 @@
 """Wind-corrected guiding-vector-field guidance (paper 001 Eq. 8; de Marina et al., ICRA'17).
 
 For a path φ(p) = a‖p‖² + bᵀp + c (normalised, ‖∇φ‖ = 1 on the path; see
-:mod:`eaplan_drake.paths`) with direction s = ±1 and gain k_e [1/m], n = ∇φ(p), H = ∇²φ = 2a I:
+:mod:`eaplan_drake.flight.paths`) with direction s = ±1 and gain k_e [1/m], n = ∇φ(p), H = ∇²φ = 2a
+I:
 
     ṗ_d = s E n − k_e φ n,                    m̂_d = ṗ_d / ‖ṗ_d‖           (guiding field)
     d/dt ṗ_d = (s E − k_e φ I) H ṗ − k_e (nᵀṗ) n                          (along the flight)
@@ -41,8 +42,8 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from eaplan_drake.flight.paths import DESCRIPTOR_SIZE
 from eaplan_drake.params import GuidanceParams
-from eaplan_drake.paths import DESCRIPTOR_SIZE
 
 __all__ = [
     "CheckWindBelowAirspeed",
@@ -168,7 +169,8 @@ class VectorFieldGuidance(LeafSystem):
 
     u_ψ = ‖ṗ‖² / (v_a m(ψ)ᵀṗ) · (χ̇_d + k_d ṗ̂ × m̂_d), saturated at ±ψ̇_max, with the guiding field
     ṗ_d = s E∇φ − k_e φ ∇φ of the active path descriptor [a, b_x, b_y, c, s, k_e] (paper 001 Eq. 8;
-    the full law, its derivation and its guards are in the :mod:`eaplan_drake.guidance` docstring;
+    the full law, its derivation and its guards are in the :mod:`eaplan_drake.flight.guidance`
+    docstring;
     the output is :func:`HeadingRateCommand`). The descriptor carries its own k_e [1/m];
     ``guidance.k_d`` [rad/s] is the course-alignment gain (``guidance.k_e`` is the default the
     plan generators put into descriptors). An all-zero descriptor (no path) commands u_ψ = 0
@@ -182,7 +184,7 @@ class VectorFieldGuidance(LeafSystem):
             otherwise). The wind itself is not an input: the measured ground velocity carries it.
 
     Inputs: ``kinematics`` (5) (x, y, ψ, ṗ_x, ṗ_y) [m, m, rad, m/s, m/s], the plant's output of
-    the same name (:data:`~eaplan_drake.plant.AircraftKinematics`: position, heading, ground
+    the same name (:data:`~eaplan_drake.flight.plant.AircraftKinematics`: position, heading, ground
     velocity; one port, so one read per evaluation), and ``path`` (the descriptor). All outputs
     are direct feedthrough of the inputs (the plant's ``kinematics`` does not depend on its
     command, so there is no algebraic loop).

@@ -10,7 +10,8 @@ Format, one item per line, ``%`` starts a comment, blank lines are skipped:
 ``direction`` is 0 or 1 (paper 003 files) or 90 / 270 (paper 002, the rotation of E in degrees).
 0 and 90 mean the field's rotation +E of the authors, which travels counter-clockwise around the
 authors' circles (φ = (x − x_o)² + (y − y_o)² − R², gradient pointing out): our s = −1 (see
-:mod:`eaplan_drake.paths`: s = +1 is clockwise). 1 and 270 mean −E: s = +1. On the authors' lines
+:mod:`eaplan_drake.flight.paths`: s = +1 is clockwise). 1 and 270 mean −E: s = +1. On the authors'
+lines
 this gives ``1;x+115`` travelling towards −y and ``0;x-35`` towards +y, as their survey flies.
 
 Expressions are parsed by a small recursive-descent parser over a whitelisted grammar — numbers,
@@ -36,7 +37,7 @@ from pathlib import Path
 import numpy as np
 from pydrake import symbolic as sym
 
-from eaplan_drake.coverage import (
+from eaplan_drake.flight.coverage import (
     ANCHOR_SIZE,
     APPROACH,
     NUM_PRIMITIVES,
@@ -45,8 +46,8 @@ from eaplan_drake.coverage import (
     PlanSource,
     Stage,
 )
+from eaplan_drake.flight.paths import PathFunction
 from eaplan_drake.params import ReadTextFile
-from eaplan_drake.paths import PathFunction
 
 __all__ = [
     "PlanFileError",
@@ -60,7 +61,7 @@ __all__ = [
     "REFERENCE_PLAN",
 ]
 
-REFERENCE_PLAN = str(Path(__file__).with_name("data") / "reference_plan.pln")
+REFERENCE_PLAN = str(Path(__file__).resolve().parents[1] / "data" / "reference_plan.pln")
 """The authors' static reference plan (``plan_specification.pln``), packaged."""
 
 

@@ -7,13 +7,15 @@ c1 grid [s], the parameters applied now) to a :class:`PlannerPolicy` and applies
 
 Where the rest lives:
 
-- :mod:`eaplan_drake.policies`: the policies (mpc, paper, greedy, greedy_authors, static) and
-  :func:`~eaplan_drake.policies.MakePolicy`.
-- :mod:`eaplan_drake.prediction`: the pure prediction helpers every policy uses (free response,
+- :mod:`eaplan_drake.planning.policies`: the policies (mpc, paper, greedy, greedy_authors, static)
+and
+  :func:`~eaplan_drake.planning.policies.MakePolicy`.
+- :mod:`eaplan_drake.planning.prediction`: the pure prediction helpers every policy uses (free
+response,
   the one Simpson SoC rollout on the Rint battery, time to reserve, the Eq. 10 line and path
   rule, the smooth table surrogate).
-- :mod:`eaplan_drake.paper_planner`: the paper's NLP (Eq. 16) and step (:class:`Planner`).
-- :mod:`eaplan_drake.mpc`: the mission-feasible MPC (the default policy).
+- :mod:`eaplan_drake.planning.paper`: the paper's NLP (Eq. 16) and step (:class:`Planner`).
+- :mod:`eaplan_drake.planning.mpc`: the mission-feasible MPC (the default policy).
 
 The names of those modules that other code imported from here stay importable from here.
 """
@@ -26,11 +28,11 @@ import time
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from eaplan_drake.computation import ComputationTable
-from eaplan_drake.energy_model import StateSize
-from eaplan_drake.paper_planner import MakePlannerProgram, Planner, PlannerProgram, PlannerSolution
+from eaplan_drake.energy.computation import ComputationTable
+from eaplan_drake.energy.fourier import StateSize
 from eaplan_drake.params import PlannerParams
-from eaplan_drake.prediction import (
+from eaplan_drake.planning.paper import MakePlannerProgram, Planner, PlannerProgram, PlannerSolution
+from eaplan_drake.planning.prediction import (
     ChoosePathParameter,
     CoverageTimeModel,
     FreeResponse,
@@ -137,18 +139,19 @@ class PlannerScheduler(LeafSystem):
         planner: the planner parameters (copied): h_T = ``period`` [s], ``warmup`` [s] and the
             size M of the c1 grid (``path_parameter_grid_size``) are read here.
         policy: the :class:`PlannerPolicy` that decides (the scheduler never builds one: the
-            diagram passes the scenario's, :func:`~eaplan_drake.policies.MakePolicy`, or a
+            diagram passes the scenario's, :func:`~eaplan_drake.planning.policies.MakePolicy`, or a
             user's own).
         table: the computation power table (its σ and bounds check the initial c2).
         order: Fourier order r of the energy model, or an ``AugmentedOrder`` (q̂ has
-            :func:`~eaplan_drake.energy_model.StateSize` entries).
+            :func:`~eaplan_drake.energy.fourier.StateSize` entries).
         initial_path_parameter: c1 flown until the first update [m²].
         initial_computation_parameters: c2 flown until the first update (σ,) [table units].
 
     Every h_T [s], from t = ``warmup`` on, it hands the inputs (q̂ [W], Var(α̂0) [W²],
     b [-], T [s], the coverage fraction left and the exact remaining time at each c1 of the grid
     [s]) and the parameters applied now to ``policy`` (:class:`PlannerPolicy`; see
-    :mod:`eaplan_drake.policies`: mpc, paper, greedy, greedy_authors, static) and applies its
+    :mod:`eaplan_drake.planning.policies`: mpc, paper, greedy, greedy_authors, static) and applies
+    its
     answer. Before the warm-up, and always for a policy that does not act, the outputs hold the
     initial parameters. ``mission_feasible`` is 1 while the policy's constraint can be met and 0
     after a step where it cannot (mpc: not even the lowest-quality plan completes the survey above

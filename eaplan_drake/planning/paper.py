@@ -12,10 +12,10 @@ jumps telescopes and the output at any time t in step k is
     y(t) = C expm(A (t − t0)) q̂ + g(c_k) − g(c_prev) =: f(t) + g(c_k) − g(c_prev),
 
 with f the free response of the Fourier model from q̂ (computed with the exact rotation blocks of
-:func:`~eaplan_drake.energy_model.DiscreteFourierMatrices`) and c_prev the parameters applied now.
+:func:`~eaplan_drake.energy.fourier.DiscreteFourierMatrices`) and c_prev the parameters applied now.
 The Rint battery ḃ = −k_b I(y)/Q_c does not depend on b, so RK4 over a step reduces to Simpson's
 rule on f at the start, middle and end of the step (exact up to O(h⁵);
-:func:`~eaplan_drake.prediction.SimpsonSocSteps`, the one rollout of every policy):
+:func:`~eaplan_drake.planning.prediction.SimpsonSocSteps`, the one rollout of every policy):
 
     b_{k+1} = b_k − (h k_b / Q_c) · [I(y_k⁰) + 4 I(y_k^½) + I(y_k¹)] / 6,   b_0 = b0 (Eq. 16f).
 
@@ -37,7 +37,8 @@ cost; Alg. 2 l. 17–27 decides it (below).
 
 The program is built once (:func:`MakePlannerProgram`) and updated per step: the free response,
 b0 and g(c_prev) live in a buffer read by the constraint, the slack bounds are updated in place.
-It is solved with IPOPT (or SNOPT, ``planner.solver``; :func:`~eaplan_drake.nlp.MakeSolver`),
+It is solved with IPOPT (or SNOPT, ``planner.solver``;
+:func:`~eaplan_drake.planning.nlp.MakeSolver`),
 warm-started from the previous solution shifted by one step, bounded by ``max_iterations`` (and
 ``max_wall_time`` when set). Drake hands the constraint AutoDiffXd variables to get its Jacobian;
 the callback computes the Jacobian analytically (no AutoDiff arithmetic) and only packs it.
@@ -56,7 +57,8 @@ then falls back to the largest c2 the exact check admits and keeps c1.
 
 **Path rule (Alg. 2 l. 17–27).** The model and the battery are rolled forward (exact f, exact g,
 Simpson) under the mapped trajectory, then with the last parameters held, until b reaches the
-reserve SoC (or a brown-out): that time is t_b (:func:`~eaplan_drake.prediction.TimeToReserve`).
+reserve SoC (or a brown-out): that time is t_b
+(:func:`~eaplan_drake.planning.prediction.TimeToReserve`).
 The remaining coverage time is t_r(c1) = f_cov · t(c1), with f_cov the fraction of the survey
 still to cover and t(c1) = ν c1 + τ the linear coverage-time model of Eq. 10 through (c̲1, t̲)
 and (c̄1, t̄). The largest c1 with t_r(c1) ≤ t_b is, in closed form,
@@ -73,12 +75,12 @@ import numpy as np
 from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.solvers import MathematicalProgram
 
-from eaplan_drake.battery import PowerBudget
-from eaplan_drake.computation import ComputationTable
-from eaplan_drake.energy_model import FreeResponseMatrix, StateSize
-from eaplan_drake.nlp import MakeSolver
+from eaplan_drake.energy.battery import PowerBudget
+from eaplan_drake.energy.computation import ComputationTable
+from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.prediction import (
+from eaplan_drake.planning.nlp import MakeSolver
+from eaplan_drake.planning.prediction import (
     ChoosePathParameter,
     CoverageTimeModel,
     GridCandidates,
@@ -383,7 +385,8 @@ class Planner:
         return at(lo), bool(ok[0]), float(soc_end[0])
 
     def TimeToReserve(self, f_half, dg_steps, soc0: float) -> float:
-        """t_b [s] of :func:`~eaplan_drake.prediction.TimeToReserve` with this planner's battery
+        """t_b [s] of :func:`~eaplan_drake.planning.prediction.TimeToReserve` with this planner's
+        battery
         and step: ``f_half`` the free response at t0 + k·h/2 [W], ``dg_steps`` the planned
         g(c_k) − g(c_prev) [W] (the last one held), ``soc0`` [-]."""
         return TimeToReserve(f_half, dg_steps, soc0, self.battery, self.step)

@@ -54,7 +54,7 @@ import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from eaplan_drake.coverage import (
+from eaplan_drake.flight.coverage import (
     ANCHOR_SIZE,
     NUM_PRIMITIVES,
     PathLeft,
@@ -106,7 +106,8 @@ class StageSequencer(LeafSystem):
     period (paper 003 Def. II.1–II.5; see the module docstring for the equations).
 
     Args:
-        plan: a :class:`~eaplan_drake.coverage.PlanSource` (``ZamboniCoverage``, ``PlanFile``,
+        plan: a :class:`~eaplan_drake.flight.coverage.PlanSource` (``ZamboniCoverage``,
+        ``PlanFile``,
             ``StaticPlan``); its ``airspeed`` v_a [m/s] serves the ``remaining_time`` output.
         trigger_radius: ε [m], ≥ 0 (``CoverageParams.trigger_radius``).
         initial_period: first guess of the period T [s], > 0

@@ -1,13 +1,15 @@
-"""Planner policies: the seam between the :class:`~eaplan_drake.planner.PlannerScheduler` and
+"""Planner policies: the seam between the :class:`~eaplan_drake.planning.planner.PlannerScheduler`
+and
 whatever decides c1 [m²] and c2 [table units] every h_T [s].
 
 ``planner.policy`` in the scenario selects one (:func:`MakePolicy`); a Python user may pass any
-:class:`~eaplan_drake.planner.PlannerPolicy` to
+:class:`~eaplan_drake.planning.planner.PlannerPolicy` to
 :func:`~eaplan_drake.diagram.MakeEaplanDiagram` instead. All share the scheduler's ports.
 
-- ``mpc`` (:class:`MpcPolicy`, default): the mission-feasible MPC of :mod:`eaplan_drake.mpc`.
+- ``mpc`` (:class:`MpcPolicy`, default): the mission-feasible MPC of
+:mod:`eaplan_drake.planning.mpc`.
 - ``paper`` (:class:`PaperPolicy`): paper 003 Eq. 16 + Alg. 2 as published
-  (:class:`~eaplan_drake.paper_planner.Planner`: Def. III.3 output constraint, Eq. 10 line,
+  (:class:`~eaplan_drake.planning.paper.Planner`: Def. III.3 output constraint, Eq. 10 line,
   rate-limited path rule); the four reference flights use it.
 - ``greedy`` (:class:`GreedyPolicy`): a one-step rule fed the MPC's signals (exact remaining
   time, estimated power, Rint battery) but with no margin and one parameter at a time: c2 is the
@@ -29,11 +31,11 @@ import time
 
 import numpy as np
 
-from eaplan_drake.computation import ComputationTable
-from eaplan_drake.mpc import MissionProblem, MissionProgram
-from eaplan_drake.paper_planner import Planner
+from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.planner import PlannerDecision, PlannerObservation, PlannerPolicy
+from eaplan_drake.planning.mpc import MissionProblem, MissionProgram
+from eaplan_drake.planning.paper import Planner
+from eaplan_drake.planning.planner import PlannerDecision, PlannerObservation, PlannerPolicy
 
 __all__ = [
     "GreedyAuthorsPolicy",
@@ -80,7 +82,7 @@ class StaticPolicy(PlannerPolicy):
 
 
 class PaperPolicy(PlannerPolicy):
-    """Paper 003 Eq. 16 + Alg. 2 (:class:`~eaplan_drake.paper_planner.Planner`); memory: the warm
+    """Paper 003 Eq. 16 + Alg. 2 (:class:`~eaplan_drake.planning.paper.Planner`); memory: the warm
     start of its NLP (carried unchanged with integer parameters, where no NLP is needed)."""
 
     name = "paper"
@@ -115,7 +117,8 @@ class PaperPolicy(PlannerPolicy):
 
 
 class MpcPolicy(PlannerPolicy):
-    """The mission-feasible MPC (:mod:`eaplan_drake.mpc`): the NLP relaxation solved with IPOPT
+    """The mission-feasible MPC (:mod:`eaplan_drake.planning.mpc`): the NLP relaxation solved with
+    IPOPT
     (iterations bounded, never wall time), mapped exactly onto the grids; memory: the relaxed
     solution [c̃1, c̃2] (the next warm start)."""
 

@@ -20,9 +20,10 @@ and cut it at each turn. With q̂ the prediction of the power is
 
     y(t) = C expm(A t) q̂ + g(c2) − g(c_now) =: f(t) + Δg(c2),        t ≥ 0 from now,
 
-(:func:`~eaplan_drake.energy_model.FreeResponseMatrix`, exact rotation blocks), and the Rint
+(:func:`~eaplan_drake.energy.fourier.FreeResponseMatrix`, exact rotation blocks), and the Rint
 battery ḃ = −k_b I(y)/Q_c gives the SoC b(t; c2) by Simpson's rule on the grid of h_T
-(:func:`~eaplan_drake.prediction.SimpsonSoc`, exact up to O(h⁵) per step), linearly interpolated in
+(:func:`~eaplan_drake.planning.prediction.SimpsonSoc`, exact up to O(h⁵) per step), linearly
+interpolated in
 between. The plan (c1_j, c2) is *feasible* when
 
     b(t_rem(c1_j); c2) ≥ b_res + m(t_rem(c1_j))                                    (1)
@@ -91,12 +92,12 @@ import numpy as np
 from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.solvers import MathematicalProgram
 
-from eaplan_drake.battery import IsBrownout, SocDerivative
-from eaplan_drake.computation import ComputationTable
-from eaplan_drake.energy_model import FreeResponseMatrix, StateSize
-from eaplan_drake.nlp import MakeSolver
+from eaplan_drake.energy.battery import IsBrownout, SocDerivative
+from eaplan_drake.energy.computation import ComputationTable
+from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.prediction import (
+from eaplan_drake.planning.nlp import MakeSolver
+from eaplan_drake.planning.prediction import (
     GridCandidates,
     PowerSurrogate,
     SimpsonSoc,
@@ -234,7 +235,7 @@ class MissionProblem:
         self._margin_rate = float(p.margin_sigmas) * s_b * sigma  # [1/s]
 
     def SetObservation(self, observation) -> None:
-        """:meth:`SetState` from a :class:`~eaplan_drake.planner.PlannerObservation`."""
+        """:meth:`SetState` from a :class:`~eaplan_drake.planning.planner.PlannerObservation`."""
         o = observation
         self.SetState(
             o.energy_coefficients,
@@ -456,7 +457,8 @@ class MissionProblem:
 
     def _SmoothNodes(self, power: float):
         """(b, ḃ, ∂b/∂g, ∂ḃ/∂g) at the nodes k·h_T under the held computation power ``power``
-        [W]: :func:`~eaplan_drake.prediction.SimpsonSoc` and its sensitivity (cached per power
+        [W]: :func:`~eaplan_drake.planning.prediction.SimpsonSoc` and its sensitivity (cached per
+        power
         for the step; unlike :meth:`SocCurve`, no −inf after a brown-out: the NLP needs a smooth
         model)."""
         key = float(power)

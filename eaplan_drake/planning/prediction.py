@@ -4,7 +4,8 @@ Pure functions over numpy, one implementation each:
 
 - :func:`FreeResponse`: f(t) = C expm(A t) q̂, the free response of the energy model [W].
 - :func:`SimpsonSocSteps` (:func:`SimpsonSoc` for a load without jumps): *the* SoC rollout.
-  The Rint battery ḃ = −k_b I(y)/Q_c (Lemma III.3, :func:`~eaplan_drake.battery.SocDerivative`,
+  The Rint battery ḃ = −k_b I(y)/Q_c (Lemma III.3,
+  :func:`~eaplan_drake.energy.battery.SocDerivative`,
   saturating at brown-out) does not depend on b, so RK4 over a step of length h reduces to
   Simpson's rule on the load at its start, middle and end (exact up to O(h⁵)):
 
@@ -14,11 +15,12 @@ Pure functions over numpy, one implementation each:
   step (the NLPs' analytic Jacobians), from :func:`SocDerivativeSlope` = ∂ḃ/∂y.
 - :func:`TimeToReserve`: t_b of Alg. 2 l. 17–23 from that rollout.
 - :class:`CoverageTimeModel` and :func:`ChoosePathParameter`: the Eq. 10 line t(c1) = ν c1 + τ
-  (ν, τ from :func:`~eaplan_drake.coverage.ScalingFactors`) and the path rule of Alg. 2 l. 24–27.
+  (ν, τ from :func:`~eaplan_drake.flight.coverage.ScalingFactors`) and the path rule of Alg. 2 l.
+  24–27.
 - :func:`GridCandidates`: the admissible grid points of c2 and their exact table power.
 - :class:`PowerSurrogate`: the smooth model ĝ of the computation table inside the NLPs (quadratic
   least-squares fit, or the Eq. 11 line of
-  :meth:`~eaplan_drake.computation.ComputationTable.scaling_factors`).
+  :meth:`~eaplan_drake.energy.computation.ComputationTable.scaling_factors`).
 """
 
 import dataclasses as dc
@@ -27,10 +29,10 @@ import math
 
 import numpy as np
 
-from eaplan_drake.battery import IsBrownout, MaxDeliverablePower, SocDerivative
-from eaplan_drake.computation import ComputationTable
-from eaplan_drake.coverage import ScalingFactors
-from eaplan_drake.energy_model import FreeResponseMatrix
+from eaplan_drake.energy.battery import IsBrownout, MaxDeliverablePower, SocDerivative
+from eaplan_drake.energy.computation import ComputationTable
+from eaplan_drake.energy.fourier import FreeResponseMatrix
+from eaplan_drake.flight.coverage import ScalingFactors
 from eaplan_drake.params import BatteryParams
 
 __all__ = [
@@ -66,7 +68,7 @@ def GridCandidates(table: ComputationTable) -> tuple[np.ndarray, np.ndarray]:
 
 def FreeResponse(q_hat, order, period: float, step: float, num_points: int) -> np.ndarray:
     """f(k·step) = C expm(A k·step) q̂ for k = 0 … num_points − 1 [W] (exact rotation blocks,
-    :func:`~eaplan_drake.energy_model.FreeResponseMatrix`)."""
+    :func:`~eaplan_drake.energy.fourier.FreeResponseMatrix`)."""
     rows = FreeResponseMatrix(order, period, step, num_points)
     return rows @ np.asarray(q_hat, dtype=float).reshape(-1)
 
@@ -85,7 +87,7 @@ def SimpsonSocSteps(y_steps, soc0, battery: BatteryParams, step: float) -> np.nd
     ``y_steps`` (3, n, …): the load at the start, middle and end of each step [W]
     (:func:`StepLoads`); further axes are independent loads. ḃ does not depend on b, so RK4 is
     Simpson's rule, b_{k+1} = b_k + step·(ḃ⁰ + 4ḃ^½ + ḃ¹)/6, with ḃ of
-    :func:`~eaplan_drake.battery.SocDerivative` (a brown-out load draws the current at the
+    :func:`~eaplan_drake.energy.battery.SocDerivative` (a brown-out load draws the current at the
     maximum power). Not clipped.
     """
     bdot = np.asarray(SocDerivative(np.asarray(y_steps, dtype=float), battery))
@@ -101,9 +103,10 @@ def SimpsonSoc(y_half, soc0, battery: BatteryParams, step: float) -> np.ndarray:
 
 
 def SocDerivativeSlope(power, battery: BatteryParams):
-    """∂ḃ/∂y = −k_b I'(y)/Q_c [1/(W s)] of :func:`~eaplan_drake.battery.SocDerivative`.
+    """∂ḃ/∂y = −k_b I'(y)/Q_c [1/(W s)] of :func:`~eaplan_drake.energy.battery.SocDerivative`.
 
-    I'(y) = 1/sqrt(V² − 4 R_r y) below :func:`~eaplan_drake.battery.MaxDeliverablePower`; 0 at
+    I'(y) = 1/sqrt(V² − 4 R_r y) below :func:`~eaplan_drake.energy.battery.MaxDeliverablePower`; 0
+    at
     and above it, where the current saturates at V/(2 R_r).
     """
     V, R = float(battery.voltage), float(battery.internal_resistance)
@@ -160,7 +163,7 @@ class CoverageTimeModel:
     """Linear coverage time t(c1) = ν c1 + τ [s] of paper 003 Eq. 10 (ρ = 1).
 
     Through (c̲1, t̲) and (c̄1, t̄): ``times`` = (t at c̲1, t at c̄1) [s], ``bounds`` = (c̲1, c̄1) [m²].
-    ν [s/m²] and τ [s] are :func:`~eaplan_drake.coverage.ScalingFactors` (ν = 0, τ = t̲ for a
+    ν [s/m²] and τ [s] are :func:`~eaplan_drake.flight.coverage.ScalingFactors` (ν = 0, τ = t̲ for a
     degenerate range c̲1 = c̄1).
     """
 
@@ -232,7 +235,7 @@ class PowerSurrogate:
 
     ``kind`` "quadratic": least-squares quadratic fit to the table's grid (when the grid has
     enough points); "linear": the Eq. 11 line Σ_j ν_j c_j + τ_j of
-    :meth:`~eaplan_drake.computation.ComputationTable.scaling_factors`.
+    :meth:`~eaplan_drake.energy.computation.ComputationTable.scaling_factors`.
     """
 
     def __init__(self, table: ComputationTable, kind: str):

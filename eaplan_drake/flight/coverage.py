@@ -47,7 +47,7 @@ import typing
 
 import numpy as np
 
-from eaplan_drake.paths import Circle, Line, PathFunction
+from eaplan_drake.flight.paths import Circle, Line, PathFunction
 
 if typing.TYPE_CHECKING:  # no import at run time: params imports this module to validate
     from eaplan_drake.params import CoverageParams

@@ -44,7 +44,7 @@ def ReferenceDirectory() -> Path:
     given = os.environ.get(REFERENCE_ENV)
     if given:
         return Path(given)
-    return Path(__file__).resolve().parents[1].parent / "shared" / "reference" / "seewald2022"
+    return Path(__file__).resolve().parents[2].parent / "shared" / "reference" / "seewald2022"
 
 
 _TIME_NAMES = {

@@ -1,6 +1,6 @@
 """Fit the energy model to a recorded power series and score its predictions.
 
-Model (see :mod:`eaplan_drake.energy_model`): Fourier order r and period T [s], optionally with
+Model (see :mod:`eaplan_drake.energy.fourier`): Fourier order r and period T [s], optionally with
 the aperiodic AR(1) load d (time constant τ [s], intensity q_d [W²/s]), sampled every Δt [s]:
 
     q_{k+1} = A_d q_k + w_k,   w_k ~ N(0, diag(q_n, …, q_n, Q_dd)),
@@ -11,10 +11,11 @@ the aperiodic AR(1) load d (time constant τ [s], intensity q_d [W²/s]), sample
     ℓ(θ) = −½ Σ_{k ≥ k_0} (log 2π s_k + e_k² / s_k),   e_k = z_k − C q̂⁻_k,  s_k = C P⁻_k Cᵀ + R,
 
 over θ = (log R, log q_n, log q_d, log τ) with a deterministic Nelder–Mead search, where (q̂⁻, P⁻)
-come from the Kalman filter of :mod:`eaplan_drake.estimator` (its gain
-:func:`~eaplan_drake.estimator.KalmanGain`, Q from
-:func:`~eaplan_drake.energy_model.ProcessNoiseMatrix`; tested against
-:func:`~eaplan_drake.estimator.KalmanUpdate` / :func:`~eaplan_drake.estimator.KalmanPredict`).
+come from the Kalman filter of :mod:`eaplan_drake.energy.estimator` (its gain
+:func:`~eaplan_drake.energy.estimator.KalmanGain`, Q from
+:func:`~eaplan_drake.energy.fourier.ProcessNoiseMatrix`; tested against
+:func:`~eaplan_drake.energy.estimator.KalmanUpdate` /
+:func:`~eaplan_drake.energy.estimator.KalmanPredict`).
 The first k_0 samples (one
 period, at most a fifth of the record) are the filter's start-up from a diffuse prior and are left
 out. From then on the filter runs with the steady-state gain (:func:`SteadyStateCovariance`,
@@ -61,7 +62,8 @@ import math
 
 import numpy as np
 
-from eaplan_drake.energy_model import (
+from eaplan_drake.energy.estimator import KalmanGain, KalmanPredict, KalmanUpdate
+from eaplan_drake.energy.fourier import (
     AugmentedOrder,
     DiscreteEnergyMatrices,
     FitFourierSeries,
@@ -70,7 +72,6 @@ from eaplan_drake.energy_model import (
     StateSize,
     TransitionMatrices,
 )
-from eaplan_drake.estimator import KalmanGain, KalmanPredict, KalmanUpdate
 from eaplan_drake.rates import RescaledProcessNoise
 
 __all__ = [
@@ -271,10 +272,10 @@ def FilterPowerSeries(
     P⁻(0) = P⁻∞ of (A_d(T_0), C, Q, R) (:func:`SteadyStateCovariance`). With one period T the
     covariance stays there and the filter is the steady-state one (one gain). With a period T_k
     per sample (``period`` an array, see :func:`PeriodSeries`) it is the exact time-varying
-    filter of the estimator: :func:`~eaplan_drake.estimator.KalmanUpdate` with z_k, then
-    :func:`~eaplan_drake.estimator.KalmanPredict` with A_d(T_k) re-discretised as
-    :class:`~eaplan_drake.estimator.EnergyEstimator` does when its period input changes
-    (:class:`~eaplan_drake.energy_model.TransitionMatrices`). Returns (q̂ (N×m) filtered states
+    filter of the estimator: :func:`~eaplan_drake.energy.estimator.KalmanUpdate` with z_k, then
+    :func:`~eaplan_drake.energy.estimator.KalmanPredict` with A_d(T_k) re-discretised as
+    :class:`~eaplan_drake.energy.estimator.EnergyEstimator` does when its period input changes
+    (:class:`~eaplan_drake.energy.fourier.TransitionMatrices`). Returns (q̂ (N×m) filtered states
     after the update at each k, e (N) innovations [W], s innovation variance [W²]: one number
     for one period, N for T_k). ``initial_state`` replaces that q̂(0) (m entries).
     """
@@ -868,12 +869,12 @@ def FitPowerLog(
     """Fit on the first half of a power log and score on the second (module docstring).
 
     T is ``period`` [s] when given (the plan's period: ground truth for the motion part), else
-    :func:`~eaplan_drake.energy_model.EstimatePeriodWithConfidence`; a log without a clear
+    :func:`~eaplan_drake.energy.fourier.EstimatePeriodWithConfidence`; a log without a clear
     period raises ValueError saying so (give the period). ``period_log`` = (times [s], T [s])
     on the log's clock instead gives a time-varying period: T_k = :func:`PeriodInForce` at
     each sample, for the model and the baselines alike (the horizons: the last T in force).
     """
-    from eaplan_drake.energy_model import EstimatePeriodWithConfidence
+    from eaplan_drake.energy.fourier import EstimatePeriodWithConfidence
 
     t, z = UniformPowerSeries(times, power)
     dt = float(t[1] - t[0])

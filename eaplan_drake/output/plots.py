@@ -20,8 +20,8 @@ from matplotlib.patches import Patch
 from matplotlib.path import Path as MplPath
 from matplotlib.transforms import ScaledTranslation
 
-from eaplan_drake.computation import LoadComputationTable
-from eaplan_drake.coverage import APPROACH, TurningRadius2
+from eaplan_drake.energy.computation import LoadComputationTable
+from eaplan_drake.flight.coverage import APPROACH, TurningRadius2
 from eaplan_drake.params import Scenario, WindVector
 from eaplan_drake.simulation import AtomicWrite, FlightLog, NormaliseParameters
 

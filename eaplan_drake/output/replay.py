@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from eaplan_drake.computation import LoadComputationTable
+from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.params import Scenario
 from eaplan_drake.simulation import FlightLog, NormaliseParameters
 
@@ -131,8 +131,8 @@ def _Flat(meshcat, path, outline_xy, z, rgba):
 
 
 def _Planned(scenario: Scenario):
-    from eaplan_drake.planfile import MakePlanSource
-    from eaplan_drake.plots import StagePoints
+    from eaplan_drake.flight.planfile import MakePlanSource
+    from eaplan_drake.output.plots import StagePoints
 
     c1 = scenario.planner.initial_path_parameters[0]
     plan = MakePlanSource(scenario, initial_c1=c1)

@@ -1,6 +1,6 @@
 """Kalman filter on the energy-model state q (paper 003 Alg. 2 l. 28–29).
 
-Model (scaled form of DESIGN.md, see :mod:`eaplan_drake.energy_model`), sampled every h [s]:
+Model (scaled form of DESIGN.md, see :mod:`eaplan_drake.energy.fourier`), sampled every h [s]:
 
     q_{k+1} = A_d(T) q_k + B Δg_{k+1} + w_k,   w_k ~ N(0, Q),
     z_k     = C q_k + v_k,                     v_k ~ N(0, R),
@@ -12,7 +12,7 @@ variances [W²] (per step).
 With the aperiodic load state (``EstimatorParams.aperiodic_time_constant`` τ > 0) the state is
 q = [α0, α1, β1, …, αr, βr, d], A_d gets φ = exp(−h/τ) for d, C a trailing 1, and
 Q = diag(q_n, …, q_n, Q_dd) with Q_dd = (q_d τ/2)(1 − φ²) (see
-:mod:`eaplan_drake.energy_model`); the filter equations below are the same.
+:mod:`eaplan_drake.energy.fourier`); the filter equations below are the same.
 
 One filter step at t_k (a priori estimate q̂⁻, P⁻ for t_k, without the jump Δg_k yet):
 
@@ -37,7 +37,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
-from eaplan_drake.energy_model import (
+from eaplan_drake.energy.fourier import (
     InputMemory,
     KnownInputStep,
     OutputMatrix,
@@ -63,7 +63,8 @@ def KalmanPredict(q, P, Ad, Q, out=None, half_Ad=None):
     A known input B Δg enters in :func:`KalmanStep`, before the measurement update. ``out``:
     optional (q_out (m,), P_out (m×m)) arrays the result is written into and returned (the same
     values bit for bit; they may be the storage of ``q`` and ``P``, e.g. a system's state).
-    ``half_Ad``: ½ A_d precomputed (:meth:`~eaplan_drake.energy_model.TransitionMatrices.WithHalf`;
+    ``half_Ad``: ½ A_d precomputed
+    (:meth:`~eaplan_drake.energy.fourier.TransitionMatrices.WithHalf`;
     computed here when None). The symmetrised ½ (X + Xᵀ), X = A_d P A_dᵀ, is formed as
     Y + Yᵀ with Y = (½ A_d) P A_dᵀ: scaling by 2⁻¹ commutes with every rounding, so Y = ½ X to
     the bit (no subnormal products at the magnitudes of P [W²]).
@@ -118,8 +119,8 @@ def KalmanStep(q_prior, P_prior, z: float, dg: float, Ad, c, Q, R: float, out=No
 
     (q_prior [W], P_prior [W²]) is the a priori estimate at t_k, z_k [W] the sample (non-finite:
     prediction only), Δg_k [W] the known change of the computation power, A_d = A_d(T) and
-    Q [W²] (m×m) precomputed (:func:`~eaplan_drake.energy_model.DiscreteEnergyMatrices`,
-    :func:`~eaplan_drake.energy_model.ProcessNoiseMatrix`), ``c`` the output row C, R [W²].
+    Q [W²] (m×m) precomputed (:func:`~eaplan_drake.energy.fourier.DiscreteEnergyMatrices`,
+    :func:`~eaplan_drake.energy.fourier.ProcessNoiseMatrix`), ``c`` the output row C, R [W²].
     Returns the a priori (q̂⁻, P⁻) for t_{k+1} as new arrays, or written into ``out`` = (q_out,
     P_out) (:func:`KalmanPredict`, as ``half_Ad``; they may be the prior's own storage).
     B = e_0 (Δg enters α0 only).
@@ -151,7 +152,7 @@ class EnergyEstimator(LeafSystem):
     ``estimated_power`` ŷ = C q̂ [W], ``covariance_trace`` tr P [W²], ``mean_power_variance``
     P_00 = Var(α̂0) [W²].
     Discrete state, one group (one read per update): q̂⁻ (m) [W], then P⁻ row-major (m²) [W²],
-    then :data:`~eaplan_drake.energy_model.InputMemory` (g at the previous step [W], T in use
+    then :data:`~eaplan_drake.energy.fourier.InputMemory` (g at the previous step [W], T in use
     [s]); :meth:`Estimate`, :meth:`Covariance` and :meth:`Memory` read its parts.
 
     .. pydrake_system::

@@ -262,7 +262,7 @@ def KnownInputStep(memory, g: float, T: float) -> float:
 class TransitionMatrices:
     """A_d(T) of :func:`DiscreteEnergyMatrices` for a fixed model and step h [s], cached per T
     (a pure function of T; the cache is emptied after ``max_periods`` periods), with ½ A_d
-    (:meth:`WithHalf`, for :func:`~eaplan_drake.estimator.KalmanPredict`)."""
+    (:meth:`WithHalf`, for :func:`~eaplan_drake.energy.estimator.KalmanPredict`)."""
 
     def __init__(self, order, h: float, max_periods: int = 64):
         self._order, self._h, self._max = order, float(h), int(max_periods)

@@ -11,9 +11,9 @@ import dataclasses as dc
 
 import numpy as np
 
-from eaplan_drake.coverage import PlanSource, StageTime
+from eaplan_drake.flight.coverage import PlanSource, StageTime
 from eaplan_drake.params import BatteryFault, Scenario
-from eaplan_drake.planner import PlannerObservation
+from eaplan_drake.planning.planner import PlannerObservation
 
 __all__ = [
     "DrawWorld",
@@ -84,7 +84,7 @@ def WithPolicy(world: Scenario, policy: str, **planner) -> Scenario:
 def LowestPlan(world: Scenario) -> Scenario:
     """A copy of ``world`` flown with the static lowest-quality plan (c1 = c̲1, c2 = the table's
     lowest grid point): the reference of what can be finished on that world."""
-    from eaplan_drake.computation import LoadComputationTable
+    from eaplan_drake.energy.computation import LoadComputationTable
 
     table = LoadComputationTable(world.computation.table)
     s = WithPolicy(

@@ -166,7 +166,7 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
     """Every flight of the study as (row keys, scenario): row keys are ``world`` (index),
     ``policy``, ``draw`` and the varied values by key path. Scenarios are validated."""
     from eaplan_drake.simulation import LoadNamedScenario
-    from eaplan_drake.worlds import LowestPlan, WithPolicy
+    from eaplan_drake.studies.worlds import LowestPlan, WithPolicy
 
     base_path = Path(directory) / study.base
     base_name = str(base_path) if base_path.suffix in (".yaml", ".yml") else study.base

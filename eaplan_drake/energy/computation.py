@@ -37,7 +37,7 @@ __all__ = [
     "ParseComputationTable",
 ]
 
-_DATA = Path(__file__).resolve().parent / "data"
+_DATA = Path(__file__).resolve().parents[1] / "data"
 
 PACKAGED_TABLES = {
     "pednet_jetson_nano": _DATA / "powprofiler_pednet_jetson_nano.csv",
