@@ -123,8 +123,8 @@ RATE_TOLERANCES = {
     "max_track": 10.0,
 }
 """How far a flight at other rates may be from the same flight at the paper's rates:
-|Δt_f| / t_f ≤ 1 % [-], |ΔSoC_final| ≤ 0.005 [-], |Δc1| ≤ 10 m² at the end (1 % of the
-reference c1 range), RMS Δŷ ≤ 0.25 W (half the reference sensor's σ = 0.5 W), max track distance
+Δt_f / t_f within ±1 % [-], ΔSoC_final within ±0.005 [-], Δc1 within ±10 m² at the end (1 % of
+the reference c1 range), RMS Δŷ ≤ 0.25 W (half the reference sensor's σ = 0.5 W), max track distance
 ≤ 10 m (the swath spacing x_d); plus the same status and the same c2 at the end
 (:func:`WithinRateTolerances`)."""
 

@@ -1,6 +1,7 @@
 """Kalman filter on the energy-model state q (paper 003 Alg. 2 l. 28–29).
 
-Model (scaled form of DESIGN.md, see :mod:`eaplan_drake.energy.fourier`), sampled every h [s]:
+Model (the :ref:`scaled form <design-energy-model>`, see :mod:`eaplan_drake.energy.fourier`),
+sampled every h [s]:
 
     q_{k+1} = A_d(T) q_k + B Δg_{k+1} + w_k,   w_k ~ N(0, Q),
     z_k     = C q_k + v_k,                     v_k ~ N(0, R),
@@ -14,7 +15,7 @@ q = [α0, α1, β1, …, αr, βr, d], A_d gets φ = exp(−h/τ) for d, C a tra
 Q = diag(q_n, …, q_n, Q_dd) with Q_dd = (q_d τ/2)(1 − φ²) (see
 :mod:`eaplan_drake.energy.fourier`); the filter equations below are the same.
 
-One filter step at t_k (a priori estimate q̂⁻, P⁻ for t_k, without the jump Δg_k yet):
+One filter step at t_k (a priori estimate q̂⁻, P⁻ for t_k, without the jump Δg_k yet)::
 
     input:    q̂⁻ ← q̂⁻ + B Δg_k                          (known input; P unchanged)
     update:   u = P⁻ Cᵀ,  s = C u + R,  k = u / s,

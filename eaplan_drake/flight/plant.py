@@ -1,6 +1,6 @@
 """Fixed-wing aircraft: unicycle at constant airspeed in wind, with a motion (propulsion) power.
 
-Kinematics (DESIGN.md "Aircraft", paper 001 Sec. III-A), state (x, y, ψ) [m, m, rad]:
+Kinematics (:ref:`design-aircraft`, paper 001 Sec. III-A), state (x, y, ψ) [m, m, rad]:
 
     ṗ = v_a m(ψ) + w,   m(ψ) = [cos ψ, sin ψ],      ψ̇ = sat(u, ψ̇_max),
 
@@ -37,7 +37,7 @@ step h the unicycle flies a circular arc relative to the air; with θ = ω h
     S(θ) = sin θ / θ,   C(θ) = (1 − cos θ) / θ = sin(θ/2) S(θ/2),   m⊥(ψ) = [−sin ψ, cos ψ],
 
 the closed form of x += v_a/ω (sin(ψ + θ) − sin ψ) + w_x h, y −= v_a/ω (cos(ψ + θ) − cos ψ) − w_y h
-without its cancellation as ω → 0 (S by its series below |θ| = 1e-4, C through the half angle).
+without its cancellation as ω → 0 (S by its series for θ within ±1e-4, C through the half angle).
 
 All functions here are pure and take float (math) or, where the plant needs it, AutoDiffXd and
 symbolic Expression scalars (``pydrake.math``); the systems :class:`FixedWingPlant` (continuous,

@@ -1,7 +1,7 @@
 """Stage sequencer: the plan's finite-state machine (paper 003 Def. II.1–II.5) as a Drake system.
 
 Every ``update_period`` the sequencer compares the aircraft's position p with the triggering point
-p_Γ of the active stage and moves to the next stage when
+p_Γ of the active stage and moves to the next stage when::
 
     ‖p − p_Γ‖ < ε                       (Def. II.1), or
     (p − p_Γ)ᵀ t̂_Γ ≥ 0                  (p has passed the line through p_Γ normal to the path;
@@ -107,8 +107,8 @@ class StageSequencer(LeafSystem):
 
     Args:
         plan: a :class:`~eaplan_drake.flight.coverage.PlanSource` (``ZamboniCoverage``,
-        ``PlanFile``,
-            ``StaticPlan``); its ``airspeed`` v_a [m/s] serves the ``remaining_time`` output.
+            ``PlanFile``, ``StaticPlan``); its ``airspeed`` v_a [m/s] serves the
+            ``remaining_time`` output.
         trigger_radius: ε [m], ≥ 0 (``CoverageParams.trigger_radius``).
         initial_period: first guess of the period T [s], > 0
             (``EnergyModelParams.initial_period``).

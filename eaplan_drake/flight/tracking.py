@@ -8,8 +8,8 @@
 For studying coverage and path following (notebook 02): :func:`MakeTrackingDiagram` builds the
 diagram with its loggers, :func:`FlyTracking` flies it until the sequencer reports the survey
 complete (or ``t_max``) and returns the logged signals with the path error φ(p)
-(:func:`PathError`: with ‖∇φ‖ = 1 on the path, |φ| is the distance to the active path to first
-order, paper 001 Eq. 8).
+(:func:`PathError`: with ‖∇φ‖ = 1 on the path, the magnitude of φ is the distance to the active
+path to first order, paper 001 Eq. 8).
 """
 
 import time
