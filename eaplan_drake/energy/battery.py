@@ -11,8 +11,8 @@ charge b [-] falls as (Lemma III.3)
     ḃ = −k_b I(y) / Q_c   [1/s],
 
 with Q_c the nominal capacity [Ah] and k_b a coefficient [-] that absorbs the Ah-to-seconds
-conversion of the reference numbers (DESIGN.md section 3). V is constant here, so under a constant
-load ḃ is constant and b(t) is linear in t (closed forms below).
+conversion of the reference numbers (:ref:`design-reference-scenario`). V is constant here, so
+under a constant load ḃ is constant and b(t) is linear in t (closed forms below).
 
 Brown-out. The circuit cannot deliver more than MaxDeliverablePower = V² / (4 R_r) [W] (the square
 root becomes imaginary). A larger load is a brown-out, never a NaN: the functions then use the
