@@ -12,8 +12,8 @@ import cProfile
 import pstats
 import time
 
-from eaplan_drake.params import OverrideFromAssignment
-from eaplan_drake.simulation import LoadNamedScenario, Simulate
+from eaplan_drake.loading import LoadNamedScenario, OverrideFromAssignment
+from eaplan_drake.simulation import Simulate
 
 
 def main() -> None:

@@ -246,7 +246,8 @@ def FlyReferenceLoop(scenario, log_period: float = 0.1) -> dict:
 
 
 def main(name: str) -> None:
-    from eaplan_drake.simulation import LoadNamedScenario, Simulate
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.simulation import Simulate
 
     scenario = LoadNamedScenario(name)
     ref = FlyReferenceLoop(scenario)

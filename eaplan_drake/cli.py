@@ -32,13 +32,13 @@ import textwrap  # noqa: E402
 import threading  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from eaplan_drake.output.reference import PAPER_RESULTS, CompareTable  # noqa: E402
-from eaplan_drake.params import (  # noqa: E402
-    POLICIES,
-    OverrideFromAssignment,
-    PlannerParams,
-    ScenarioError,
+from eaplan_drake.loading import OverrideFromAssignment, ShippedFile  # noqa: E402
+from eaplan_drake.output.reference import (  # noqa: E402
+    PAPER_RESULTS,
+    CompareScenarios,
+    CompareTable,
 )
+from eaplan_drake.params import POLICIES, ScenarioError  # noqa: E402
 from eaplan_drake.rates import RATE_PRESETS  # noqa: E402
 
 __all__ = ["main"]
@@ -73,14 +73,16 @@ def _FormatSummary(summary: dict) -> str:
 
 
 def _Simulate(args) -> int:
-    _CheckScenarioName(args.scenario)  # before the slow pydrake import
+    ShippedFile(args.scenario, "scenarios")  # before the slow pydrake import
+    from eaplan_drake.loading import LoadNamedScenario
     from eaplan_drake.output.progress import FlightProgress, ProgressBar
+    from eaplan_drake.output.save import SaveFlight
     from eaplan_drake.resolve import ResolveScenario
-    from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
+    from eaplan_drake.simulation import Simulate
 
     overrides = [OverrideFromAssignment(a) for a in args.set]
     if args.rates:  # the preset first, then --set (as a study's rates and set)
-        from eaplan_drake.params import LayerScenario
+        from eaplan_drake.loading import LayerScenario
         from eaplan_drake.rates import WithRates
 
         scenario = LayerScenario(WithRates(LoadNamedScenario(args.scenario), args.rates), overrides)
@@ -105,26 +107,6 @@ def _Simulate(args) -> int:
     return 0
 
 
-def _CheckScenarioName(name: str) -> None:
-    """The one-line error for a scenario that is neither a file nor a shipped name, without
-    importing pydrake (the same check :func:`~eaplan_drake.simulation.LoadNamedScenario`
-    makes)."""
-    from importlib import resources
-
-    path = Path(name)
-    if path.suffix in (".yaml", ".yml") or path.exists():
-        return
-    if not (resources.files("eaplan_drake") / "scenarios" / f"{name}.yaml").is_file():
-        shipped = sorted(
-            f.name[: -len(".yaml")]
-            for f in (resources.files("eaplan_drake") / "scenarios").iterdir()
-            if f.name.endswith(".yaml")
-        )
-        raise ScenarioError(
-            f"{name}: not a YAML file nor a shipped scenario (shipped: {', '.join(shipped)})"
-        )
-
-
 def _Diagram(args) -> int:
     from eaplan_drake.output.graphviz import WriteDiagrams
 
@@ -135,31 +117,12 @@ def _Diagram(args) -> int:
     return 0
 
 
-COMPARE_FLIGHTS = (
-    ("plan_I", None),
-    ("plan_II", None),
-    ("plan_i", None),
-    ("plan_ii", None),
-    ("plan_i", "mpc"),
-    ("plan_ii", "mpc"),
-)
-"""The flights of ``compare``: the four reference flights (the paper's policy, as pinned in
-their scenarios) and the two dynamic ones again with the mpc policy."""
-
-
 def _Compare(args) -> int:
     from eaplan_drake.output.progress import FlightProgress, ProgressBar
-    from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
+    from eaplan_drake.output.save import SaveFlight
+    from eaplan_drake.simulation import Simulate
 
-    scenarios = []
-    for name, policy in COMPARE_FLIGHTS:
-        scenario = LoadNamedScenario(name)
-        if policy:
-            scenario.planner.policy = policy
-            scenario.planner.warmup = PlannerParams().warmup
-            scenario.planner.warmup_parameters = PlannerParams().warmup_parameters
-            scenario.name = f"{name}_{policy}"
-        scenarios.append((name, scenario))
+    scenarios = CompareScenarios([OverrideFromAssignment(a) for a in args.set])
     n = len(scenarios)
     bar = ProgressBar(f"compare: {n} flights")
     if args.jobs != 1:  # the studies' machinery: joblib's loky workers ([sweep] extra)
@@ -199,18 +162,6 @@ def _Compare(args) -> int:
     return 0
 
 
-def _StudyPath(name_or_path: str):
-    from importlib import resources
-
-    path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml") or path.exists():
-        return path
-    shipped = resources.files("eaplan_drake") / "studies" / f"{name_or_path}.yaml"
-    if not shipped.is_file():
-        raise ScenarioError(f"{name_or_path}: not a YAML file nor a shipped study")
-    return Path(str(shipped))
-
-
 def _Sweep(args) -> int:
     try:
         import joblib  # noqa: F401
@@ -218,7 +169,7 @@ def _Sweep(args) -> int:
         raise ScenarioError("sweep needs the [sweep] extra: pip install -e '.[sweep]'") from None
     from eaplan_drake.studies.sweep import LoadStudy, RunStudy, StudyReport
 
-    study, directory = LoadStudy(_StudyPath(args.study))
+    study, directory = LoadStudy(ShippedFile(args.study, "studies")[0])
     if args.rates:
         study = dc.replace(study, rates=args.rates)
     if args.backend == "dask" and not args.scheduler:
@@ -249,9 +200,9 @@ def _StudyReport(args) -> int:
 
 
 def _Fit(args) -> int:
+    from eaplan_drake.files import AtomicWrite
     from eaplan_drake.logfit.fit import NOISE_CRITERIA_TEXT, FitPowerLog, FormatScores, PlotLogFit
     from eaplan_drake.logfit.powerlog import PowerLogError, ReadPeriodLog, ReadPowerLog
-    from eaplan_drake.simulation import _AtomicWrite
 
     if args.period is not None and args.period_log:
         print("eaplan-drake fit: give either --period or --period-log, not both", file=sys.stderr)
@@ -305,9 +256,9 @@ def _Fit(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fragment = fit.ScenarioFragment()
-    _AtomicWrite(out / "fit.yaml", lambda f: f.write(fragment), binary=False)
+    AtomicWrite(out / "fit.yaml", lambda f: f.write(fragment), binary=False)
     fig = PlotLogFit(result)
-    _AtomicWrite(out / "fit.png", lambda f: fig.savefig(f, format="png", dpi=110), binary=True)
+    AtomicWrite(out / "fit.png", lambda f: fig.savefig(f, format="png", dpi=110), binary=True)
     print(f"wrote {out / 'fit.yaml'} (for simulate) and {out / 'fit.png'}")
     return 0
 
@@ -355,6 +306,13 @@ def main(argv=None) -> int:
     )
     p.add_argument("--out", default="", help="also write each flight's log and plots here")
     p.add_argument("--jobs", type=int, default=1, help="parallel flights ([sweep] extra)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY.PATH=VALUE",
+        help="override a key of every flight (repeatable), e.g. simulation.time_limit=60",
+    )
     p.set_defaults(run=_Compare)
     p = sub.add_parser("sweep", help="fly a study (sweep / Monte Carlo) and write its report")
     p.add_argument("study", help="shipped study (robustness, battery_size) or YAML path")

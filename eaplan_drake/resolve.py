@@ -24,11 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.energy.computation import ComputationTable, LoadComputationTable
-from eaplan_drake.flight.coverage import PlanSource
+from eaplan_drake.flight.coverage import CheckCoverageGeometry, PlanSource
 from eaplan_drake.flight.paths import PathFunction
 from eaplan_drake.flight.planfile import MakePlanSource, PlanFile
 from eaplan_drake.flight.plant import MaxHeadingRate
-from eaplan_drake.params import ResolveFilePaths, Scenario, ScenarioError
+from eaplan_drake.loading import ResolveFilePaths
+from eaplan_drake.params import MAX_SURVEY_LINES, Scenario, ScenarioError
 
 __all__ = [
     "MAX_PLAN_STAGES",
@@ -94,7 +95,7 @@ def PeakCircleHeadingRate(radius: float, airspeed: float, wind_speed: float) -> 
 def ResolveScenario(scenario: Scenario, base_dir: str | Path | None = None) -> ResolvedScenario:
     """Validates ``scenario``, loads its table and plan and checks the cross-field constraints
     (module docstring); relative file paths are taken against ``base_dir`` if given (the
-    scenario file's folder; :func:`~eaplan_drake.params.LoadScenario` does this already).
+    scenario file's folder; :func:`~eaplan_drake.loading.LoadScenario` does this already).
     Raises :class:`ScenarioError` with one line naming the key."""
     if not isinstance(scenario, Scenario):
         raise ScenarioError(
@@ -145,10 +146,28 @@ def StartParameters(scenario: Scenario, table) -> tuple[float, list[float]]:
 def _Plan(scenario: Scenario, table: ComputationTable) -> PlanSource:
     c1_0, _ = StartParameters(scenario, table)
     key = "coverage.plan_file" if scenario.coverage.plan_file else "coverage"
+    if not scenario.coverage.plan_file:
+        _CheckZamboniGeometry(scenario.coverage)
     try:
         return MakePlanSource(scenario, initial_c1=c1_0)
     except (ValueError, OSError, RecursionError, RuntimeError) as e:
         raise ScenarioError(f"{key}: {_OneLine(e)}") from None
+
+
+def _CheckZamboniGeometry(coverage, key: str = "coverage") -> None:
+    """The generated plan's field: convex, not degenerate, the line edge valid, large enough for
+    one repetition and at most :data:`~eaplan_drake.params.MAX_SURVEY_LINES` lines across (bounds
+    the plan's size). A ``.pln`` plan is checked by its own reader instead."""
+    try:
+        width = CheckCoverageGeometry(coverage, key).width
+    except (ValueError, RuntimeError, OverflowError) as e:
+        raise ScenarioError(str(e).splitlines()[0] if str(e) else f"{key}: {e!r}") from None
+    if width / coverage.swath_spacing > MAX_SURVEY_LINES:
+        raise ScenarioError(
+            f"{key}.polygon: the field is {width:g} m across the lines, more than "
+            f"{MAX_SURVEY_LINES} lines of swath_spacing = {coverage.swath_spacing:g} m (bounds the "
+            f"plan's size)"
+        )
 
 
 def _CheckPlan(scenario: Scenario, plan: PlanSource) -> None:

@@ -2,62 +2,36 @@
 
 The flight ends when the survey is complete, the battery reaches its reserve SoC, the battery
 browns out (each decided by the system concerned at its own update, which returns
-``EventStatus.ReachedTermination``), or at the scenario's time limit. :class:`FlightLog` holds
-the logged time series and a summary with the paper's quality metric (paper 003 Sec. V)
-
-    P = mean_t(½ c̃1 + ½ c̃2) / (b(t_f) − b_reserve),
-
-c̃ the parameters normalised to [0, 1] by their bounds; a flight that does not complete the survey
-or ends with b ≤ b_reserve fails (P is then ``None``). If a state or the heading-rate command
+``EventStatus.ReachedTermination``), or at the scenario's time limit. The
+:class:`~eaplan_drake.flightlog.FlightLog` holds the logged time series and a summary with the
+paper's quality metric (:mod:`eaplan_drake.flightlog`). If a state or the heading-rate command
 becomes NaN or infinite, the flight ends with status ``numerical_failure``.
-
-Output on disk is written whole or not at all: every file goes through a temporary file in the
-same folder, ``fsync``, ``rename`` (:func:`AtomicWrite`), and :func:`SaveFlight` writes a flight's
-result directory (log, summary, figure) into a temporary directory that replaces the old one as
-a unit, so a new log never sits beside an old figure. Temporary files are removed on every exit
-Python sees; those of a killed process (named with its pid) by the next save into the same folder.
-The summary is strict JSON (NaN and infinities are written as ``null``).
+:func:`FlyHindsight` is the hindsight yardstick: the best constant plan on the same world.
 """
 
-import contextlib
 import copy
-import dataclasses as dc
 import itertools
-import json
 import math
-import os
-import re
-import shutil
-import tempfile
 import time
-import typing
 from collections.abc import Callable
-from importlib import resources
-from pathlib import Path
 
 import numpy as np
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator, SimulatorStatus
 
 from eaplan_drake.diagram import LoggedSignals, MakeEaplanDiagram
 from eaplan_drake.energy.battery import STATUS_BROWNOUT, STATUS_RESERVE
+from eaplan_drake.files import JsonSafe
 from eaplan_drake.flight.plant import NonFiniteCommandError
-from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
+from eaplan_drake.flightlog import FlightLog, NormaliseParameters, QualityMetric
+from eaplan_drake.params import CheckType, Scenario, ScenarioError
 from eaplan_drake.planning.planner import PlannerPolicy
 from eaplan_drake.resolve import ResolveScenario
 
 __all__ = [
-    "AtomicWrite",
-    "FlightLog",
+    "EndReason",
     "FlyHindsight",
     "HindsightGrid",
-    "LoadFlightLog",
-    "LoadNamedScenario",
-    "NormaliseParameters",
-    "QualityMetric",
     "REFERENCE_SCENARIOS",
-    "EndReason",
-    "ResultDirectory",
-    "SaveFlight",
     "Simulate",
 ]
 
@@ -67,246 +41,6 @@ REFERENCE_SCENARIOS = ("plan_I", "plan_II", "plan_i", "plan_ii")
 STATUS_COMPLETE = "complete"
 STATUS_TIME_LIMIT = "time_limit"
 STATUS_NUMERICAL = "numerical_failure"
-
-
-def LoadNamedScenario(name_or_path: str | Path, overrides: typing.Sequence[str] = ()) -> Scenario:
-    """A shipped scenario by name (``plan_I``, ``plan_II``, ``plan_i``, ``plan_ii``) or a YAML
-    path, with the YAML ``overrides`` layered on it in order (see
-    :func:`~eaplan_drake.params.LoadScenario`). Raises :class:`ScenarioError` with one clear line
-    on any problem."""
-    if not isinstance(name_or_path, str | Path):
-        raise ScenarioError(
-            f"LoadNamedScenario: expected a shipped name or a YAML path, got "
-            f"{type(name_or_path).__name__}"
-        )
-    path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml") or path.exists():
-        return LoadScenario(filename=path, overrides=overrides)
-    shipped = resources.files("eaplan_drake") / "scenarios" / f"{name_or_path}.yaml"
-    if not shipped.is_file():
-        raise ScenarioError(
-            f"{name_or_path}: not a YAML file nor a shipped scenario "
-            f"(shipped: {', '.join(REFERENCE_SCENARIOS)})"
-        )
-    return LoadScenario(data=shipped.read_text(), overrides=overrides)
-
-
-@dc.dataclass
-class FlightLog:
-    """Time series of one flight (``times`` [s] and one array per signal, samples along axis 0)
-    and a JSON-able ``summary``."""
-
-    times: np.ndarray
-    signals: dict[str, np.ndarray]
-    summary: dict
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        return self.signals[name]
-
-    def Save(self, directory: str | Path) -> Path:
-        """Writes ``log.npz`` and ``summary.json`` (strict JSON) into ``directory`` (created),
-        each file atomically (:func:`AtomicWrite`); :func:`SaveFlight` writes a whole result
-        directory as a unit."""
-        directory = Path(directory)
-        directory.mkdir(parents=True, exist_ok=True)
-        AtomicWrite(
-            directory / "log.npz",
-            lambda f: np.savez_compressed(f, times=self.times, **self.signals),
-            binary=True,
-        )
-        AtomicWrite(
-            directory / "summary.json",
-            lambda f: f.write(StrictJson(self.summary)),
-            binary=False,
-        )
-        return directory
-
-
-def LoadFlightLog(directory: str | Path) -> FlightLog:
-    """Reads a log written by :meth:`FlightLog.Save`."""
-    directory = Path(directory)
-    with np.load(directory / "log.npz") as data:
-        arrays = {k: data[k] for k in data.files}
-    summary = json.loads((directory / "summary.json").read_text())
-    times = arrays.pop("times")
-    return FlightLog(times=times, signals=arrays, summary=summary)
-
-
-def StrictJson(value) -> str:
-    """``value`` as strict JSON text (NaN and ±inf become ``null``, numpy scalars and arrays
-    plain numbers and lists), indented, keys sorted."""
-    return json.dumps(_JsonSafe(value), indent=2, sort_keys=True, allow_nan=False) + "\n"
-
-
-def _Umask() -> int:
-    umask = os.umask(0)
-    os.umask(umask)
-    return umask
-
-
-def _FsyncDirectory(directory: Path) -> None:
-    fd = os.open(directory, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-_TEMP = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.[^.]+\.(tmp|old)")
-
-
-def _RemoveStaleTemps(folder: Path) -> None:
-    """Removes the temporary files and directories of killed processes in ``folder`` (named
-    ``.<name>.<pid>.<random>.tmp`` or ``.old`` with a pid that no longer runs)."""
-    with contextlib.suppress(OSError):
-        for entry in folder.iterdir():
-            m = _TEMP.fullmatch(entry.name)
-            if not m or _PidAlive(int(m.group("pid"))):
-                continue
-            if entry.is_dir() and not entry.is_symlink():
-                shutil.rmtree(entry, ignore_errors=True)
-            else:
-                entry.unlink(missing_ok=True)
-
-
-def _PidAlive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # e.g. another user's process
-        return True
-    return True
-
-
-def AtomicWrite(path: str | Path, write: Callable, binary: bool) -> Path:
-    """Writes ``path`` whole or not at all: ``write(f)`` into a temporary file in the same
-    folder, flush, ``fsync``, ``rename`` onto ``path``, ``fsync`` of the folder. The temporary
-    file is removed on any exception (and by the next write into the folder if the process was
-    killed). The file gets the normal mode (0666 & ~umask)."""
-    path = Path(path)
-    _RemoveStaleTemps(path.parent)
-    fd, tmp = tempfile.mkstemp(
-        dir=path.parent, prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp"
-    )
-    try:
-        with os.fdopen(fd, "wb" if binary else "w", encoding=None if binary else "utf-8") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o666 & ~_Umask())  # mkstemp makes 0600; the result is a normal file
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    _FsyncDirectory(path.parent)
-    return path
-
-
-_AtomicWrite = AtomicWrite  # the name the studies (sweep.py) use
-
-
-@contextlib.contextmanager
-def ResultDirectory(directory: str | Path):
-    """Context manager: yields a new empty temporary directory next to ``directory``; when the
-    block ends without an exception it replaces ``directory`` as a whole (the old one, with
-    everything in it, is removed), otherwise it is removed. A reader never sees a mix of old
-    and new files; a kill between the two renames leaves no ``directory`` (and a hidden old copy
-    that the next save removes)."""
-    final = Path(directory)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    _RemoveStaleTemps(final.parent)
-    tmp = Path(
-        tempfile.mkdtemp(dir=final.parent, prefix=f".{final.name}.{os.getpid()}.", suffix=".tmp")
-    )
-    try:
-        yield tmp
-        os.chmod(tmp, 0o777 & ~_Umask())
-        _FsyncDirectory(tmp)
-        if final.exists() or final.is_symlink():
-            old = Path(f"{tmp}"[: -len(".tmp")] + ".old")
-            os.replace(final, old)
-            os.replace(tmp, final)
-            _FsyncDirectory(final.parent)
-            if old.is_dir() and not old.is_symlink():
-                shutil.rmtree(old)
-            else:
-                old.unlink()
-        else:
-            os.replace(tmp, final)
-        _FsyncDirectory(final.parent)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-
-
-def SaveFlight(
-    log: "FlightLog", scenario: Scenario, directory: str | Path, *, replay: bool = False
-) -> list[Path]:
-    """Writes a flight's result directory as a unit (:func:`ResultDirectory`): ``log.npz``,
-    ``summary.json``, ``flight.png`` and, with ``replay``, the Meshcat replay ``replay.html``
-    (:func:`~eaplan_drake.output.replay.SaveFlightReplay`); returns the paths of the figure and the
-    replay."""
-    from eaplan_drake.output.plots import SaveFlightPlots
-
-    _CheckType(log, FlightLog, "log", "a FlightLog (from Simulate)")
-    _CheckType(scenario, Scenario, "scenario", "a Scenario")
-    final = Path(directory)
-    with ResultDirectory(final) as tmp:
-        log.Save(tmp)
-        written = [SaveFlightPlots(log, scenario, tmp)]
-        if replay:
-            from eaplan_drake.output.replay import SaveFlightReplay
-
-            written.append(SaveFlightReplay(log, scenario, tmp / "replay.html"))
-    return [final / f.name for f in written]
-
-
-def _CheckType(value, kind, name: str, what: str) -> None:
-    if not isinstance(value, kind):
-        raise ScenarioError(f"{name}: expected {what}, got {type(value).__name__}")
-
-
-def QualityMetric(
-    times: np.ndarray,
-    path_parameters: np.ndarray,
-    computation_parameters: np.ndarray,
-    path_bounds: tuple[float, float],
-    computation_bounds: tuple[np.ndarray, np.ndarray],
-    final_soc: float,
-    reserve_soc: float,
-    completed: bool,
-) -> tuple[float | None, float, float]:
-    """The paper's metric P (``None`` for a failed flight), with mean c̃1 and mean c̃2.
-
-    Means are time-weighted (trapezoid over ``times``); several computation parameters are
-    averaged into c̃2.
-    """
-    lo, hi = path_bounds
-    c1n = NormaliseParameters(np.asarray(path_parameters, dtype=float)[:, 0], lo, hi)
-    clo, chi = (np.asarray(b, dtype=float) for b in computation_bounds)
-    c2 = np.asarray(computation_parameters, dtype=float).reshape(len(times), -1)
-    c2n = np.mean(NormaliseParameters(c2, clo, chi), axis=1)
-    mean_c1 = _TimeMean(times, c1n)
-    mean_c2 = _TimeMean(times, c2n)
-    margin = final_soc - reserve_soc
-    if not completed or margin <= 0.0:
-        return None, mean_c1, mean_c2
-    return (0.5 * mean_c1 + 0.5 * mean_c2) / margin, mean_c1, mean_c2
-
-
-def NormaliseParameters(c, lo, hi):
-    """c̃ = (c − lo) / (hi − lo) clipped to [0, 1] (0 where the bounds coincide)."""
-    span = np.where(np.asarray(hi) > np.asarray(lo), np.asarray(hi) - np.asarray(lo), 1.0)
-    return np.clip((c - lo) / span, 0.0, 1.0)
-
-
-def _TimeMean(t: np.ndarray, x: np.ndarray) -> float:
-    if len(t) < 2 or t[-1] <= t[0]:
-        return float(x[-1]) if len(x) else 0.0
-    return float(np.sum(0.5 * (x[1:] + x[:-1]) * np.diff(t)) / (t[-1] - t[0]))
 
 
 def Simulate(
@@ -387,13 +121,15 @@ def Simulate(
         "duration": final_time,
         "final_soc": final_soc,
         "reserve_soc": reserve,
+        "path_parameter_bounds": [float(v) for v in scenario.planner.path_parameter_bounds],
+        "computation_parameter_bounds": [table_lo.tolist(), table_hi.tolist()],
         "final_margin": final_soc - reserve,
         "quality": 0.5 * mean_c1 + 0.5 * mean_c2,
         "mean_path_parameter_normalised": mean_c1,
         "mean_computation_parameter_normalised": mean_c2,
         "metric": metric,
         "first_infeasible_time": float(log.times[infeasible_at[0]]) if infeasible_at.size else None,
-        "planner": _JsonSafe(stats),
+        "planner": JsonSafe(stats),
         "wall_time": wall_time,
         "realtime_factor": final_time / wall_time if wall_time > 0 else None,
     }
@@ -483,7 +219,7 @@ def _StatesFinite(diagram, root_context) -> bool:
 
 
 def _CheckSimulateArguments(scenario, progress, progress_interval, policy) -> None:
-    _CheckType(
+    CheckType(
         scenario, Scenario, "Simulate: scenario", "a Scenario (e.g. LoadNamedScenario('plan_i'))"
     )
     if progress is not None and not callable(progress):
@@ -529,20 +265,6 @@ def EndReason(status: str, time: float, scenario: Scenario, coverage_remaining: 
 def _CollectLog(diagram, context) -> FlightLog:
     times, signals = LoggedSignals(diagram, context)
     return FlightLog(times=times, signals=signals, summary={})
-
-
-def _JsonSafe(value):
-    if isinstance(value, dict):
-        return {str(k): _JsonSafe(v) for k, v in value.items()}
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if isinstance(value, list | tuple):
-        return [_JsonSafe(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def HindsightGrid(scenario: Scenario) -> list[tuple[float, np.ndarray]]:

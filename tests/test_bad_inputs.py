@@ -19,7 +19,8 @@ import pytest
 from eaplan_drake.cli import main as cli_main
 from eaplan_drake.diagram import LOGGED_SIGNALS
 from eaplan_drake.flight.plant import FixedWingDynamics, NonFiniteCommandError
-from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
+from eaplan_drake.loading import LoadScenario
+from eaplan_drake.params import Scenario, ScenarioError
 from eaplan_drake.resolve import PeakCircleHeadingRate, ResolveScenario, TriggerDistance
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -376,7 +377,9 @@ def test_duplicate_key_names_both_lines():
 
 
 def test_api_simulate_checks_its_arguments():
-    from eaplan_drake.simulation import LoadNamedScenario, SaveFlight, Simulate
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.output.save import SaveFlight
+    from eaplan_drake.simulation import Simulate
 
     for bad in ("plan_i", None, {"battery": {}}):
         with pytest.raises(ScenarioError, match="Simulate: scenario: expected a Scenario"):
@@ -469,7 +472,8 @@ def test_trigger_distance_of_lines_and_circles():
 
 
 def test_shipped_scenarios_resolve():
-    from eaplan_drake.simulation import REFERENCE_SCENARIOS, LoadNamedScenario
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.simulation import REFERENCE_SCENARIOS
 
     for name in (*REFERENCE_SCENARIOS, "survey"):
         resolved = ResolveScenario(LoadNamedScenario(name))
@@ -480,7 +484,7 @@ def test_shipped_scenarios_resolve():
 
 
 def test_summary_is_strict_json(tmp_path):
-    from eaplan_drake.simulation import FlightLog, LoadFlightLog
+    from eaplan_drake.flightlog import FlightLog, LoadFlightLog
 
     log = FlightLog(
         times=np.array([0.0, 1.0]),
@@ -495,7 +499,7 @@ def test_summary_is_strict_json(tmp_path):
 
 
 def test_result_directory_is_replaced_as_a_unit(tmp_path):
-    from eaplan_drake.simulation import ResultDirectory
+    from eaplan_drake.files import ResultDirectory
 
     final = tmp_path / "run"
     with ResultDirectory(final) as tmp:
@@ -518,7 +522,8 @@ def test_result_directory_is_replaced_as_a_unit(tmp_path):
 
 def _SaveLoop(out: str, started) -> None:
     """Saves flights of increasing generation g into ``out`` forever (run in a forked child)."""
-    from eaplan_drake.simulation import FlightLog, SaveFlight
+    from eaplan_drake.flightlog import FlightLog
+    from eaplan_drake.output.save import SaveFlight
 
     n = 200
     t = np.linspace(0.0, 20.0, n)
@@ -535,7 +540,7 @@ def _SaveLoop(out: str, started) -> None:
 def _CheckResultDirectory(final: Path) -> None:
     """``final`` is absent or complete and of one generation; nothing else in its folder but
     temporaries named with a pid."""
-    from eaplan_drake.simulation import LoadFlightLog
+    from eaplan_drake.flightlog import LoadFlightLog
 
     if final.exists():
         assert sorted(p.name for p in final.iterdir()) == ["flight.png", "log.npz", "summary.json"]
@@ -549,7 +554,7 @@ def _CheckResultDirectory(final: Path) -> None:
 def test_kill_during_save_leaves_no_half_written_or_orphaned_file(tmp_path):
     import multiprocessing
 
-    from eaplan_drake.simulation import ResultDirectory
+    from eaplan_drake.files import ResultDirectory
 
     rng = random.Random(10)
     final = tmp_path / "out" / "run"

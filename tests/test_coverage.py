@@ -319,10 +319,15 @@ def test_bad_polygons_are_rejected_with_a_clear_message(polygon, edge, match):
         _Zamboni(params)
 
 
-def test_scenario_validation_checks_the_geometry():
-    bad = dc.replace(CoverageParams(), polygon=[[0, 0], [100, 0], [30, 30], [0, 100]])
+def test_resolving_a_generated_plan_checks_the_geometry():
+    from eaplan_drake.params import Scenario
+    from eaplan_drake.resolve import ResolveScenario
+
+    bad = Scenario()
+    bad.coverage.polygon = [[0, 0], [100, 0], [30, 30], [0, 100]]
+    bad.coverage.Validate()  # the schema checks fields; the Zamboni geometry is the plan's
     with pytest.raises(ScenarioError, match=r"^coverage.polygon: non-convex"):
-        bad.Validate()
+        ResolveScenario(bad)
     with pytest.raises(ScenarioError, match=r"^coverage.trigger_radius"):
         dc.replace(CoverageParams(), trigger_radius=-1.0).Validate()
     CoverageParams().Validate()

@@ -8,8 +8,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.primitives import LogVectorOutput
 
 from eaplan_drake.diagram import LOGGED_SIGNALS, LoggedSignals, MakeEaplanDiagram
+from eaplan_drake.loading import LoadScenario
 from eaplan_drake.output.graphviz import DiagramDots
-from eaplan_drake.params import LoadScenario, Scenario
+from eaplan_drake.params import Scenario
 
 DIAGRAMS = Path(__file__).resolve().parents[1] / "diagrams"
 SYSTEMS = {

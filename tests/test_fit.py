@@ -11,6 +11,7 @@ import pytest
 from eaplan_drake.cli import main
 from eaplan_drake.energy.estimator import KalmanPredict, KalmanUpdate
 from eaplan_drake.energy.fourier import AugmentedOrder, DiscreteEnergyMatrices, OutputMatrix
+from eaplan_drake.loading import LoadScenario
 from eaplan_drake.logfit.fit import (
     HORIZONS_SUFFIX,
     NOISE_CRITERIA,
@@ -42,7 +43,6 @@ from eaplan_drake.logfit.powerlog import (
     ReadPowerLog,
     ReferenceDirectory,
 )
-from eaplan_drake.params import LoadScenario
 
 DATA = resources.files("eaplan_drake") / "data"
 T = 46.0

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from eaplan_drake.cli import main as cli_main
-from eaplan_drake.simulation import LoadNamedScenario, Simulate
+from eaplan_drake.loading import LoadNamedScenario
+from eaplan_drake.simulation import Simulate
 
 pytestmark = pytest.mark.slow
 

@@ -2,7 +2,8 @@
 
 import pytest
 
-from eaplan_drake.params import LoadScenario, Scenario, ScenarioError
+from eaplan_drake.loading import LoadScenario
+from eaplan_drake.params import Scenario, ScenarioError
 
 
 def test_defaults_are_the_reference_numbers():
@@ -83,7 +84,7 @@ def test_invalid_yaml_and_missing_file(tmp_path):
 
 
 def test_overrides_layer_in_order_and_lists_replace():
-    from eaplan_drake.params import OverrideFromAssignment as Set
+    from eaplan_drake.loading import OverrideFromAssignment as Set
 
     base = "name: base\nbattery: {capacity: 3.0, faults: [{time: 10, soc_drop: 0.05}]}"
     s = LoadScenario(
@@ -116,7 +117,7 @@ def test_overrides_layer_in_order_and_lists_replace():
     ],
 )
 def test_bad_override_is_one_line_naming_the_key(assignment, message):
-    from eaplan_drake.params import OverrideFromAssignment
+    from eaplan_drake.loading import OverrideFromAssignment
 
     with pytest.raises(ScenarioError) as e:
         LoadScenario(data="", overrides=[OverrideFromAssignment(assignment)])

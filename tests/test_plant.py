@@ -491,7 +491,8 @@ def test_exact_arc_plant_flies_the_closed_loop_like_the_continuous_one():
     """plan i for 20 s with simulation.plant = continuous and = exact_arc: same status, events
     and log times; the hold of the command over 0.01 s moves the track by < 0.25 m (measured:
     0.17 m here, 0.18 m over the full flight) and the SoC by < 1e-5 (measured: 1.6e-6 here)."""
-    from eaplan_drake.simulation import LoadNamedScenario, Simulate
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.simulation import Simulate
 
     logs = {}
     for plant in ("continuous", "exact_arc"):

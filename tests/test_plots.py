@@ -7,18 +7,17 @@ import numpy as np
 import pytest
 
 from eaplan_drake.flight.coverage import MakeCoveragePlan
+from eaplan_drake.flightlog import FlightLog, SampleQuality
 from eaplan_drake.output.plots import (
     PlotFlight,
     PlotPolicyComparison,
     RobustRange,
-    SampleQuality,
     SaveFlightPlots,
     StagePoints,
     UncoveredArea,
     UncoveredRadius,
 )
 from eaplan_drake.params import BatteryFault, Scenario
-from eaplan_drake.simulation import FlightLog
 
 
 def test_uncovered_area_of_a_square_swept_by_one_line():
@@ -99,6 +98,8 @@ def _Log(completed=False, c1=-500.0, c2=6.0):
             "quality": 0.5,
             "metric": None,
             "policy": "mpc",
+            "path_parameter_bounds": [-1000.0, 0.0],
+            "computation_parameter_bounds": [[2.0], [10.0]],
         },
     )
 
@@ -143,9 +144,9 @@ def test_flight_figure_marks_events_end_and_uncovered_area():
 
 
 def test_sample_quality_is_the_mean_of_the_normalised_parameters():
-    q = SampleQuality(_Log(c1=-500.0, c2=6.0), _Scenario())
+    q = SampleQuality(_Log(c1=-500.0, c2=6.0))
     np.testing.assert_allclose(q, 0.5 * 0.5 + 0.5 * 0.5)
-    q = SampleQuality(_Log(c1=0.0, c2=2.0), _Scenario())
+    q = SampleQuality(_Log(c1=0.0, c2=2.0))
     np.testing.assert_allclose(q, 0.5)
 
 

@@ -155,17 +155,11 @@ def test_cli_simulate_with_replay_writes_the_html_and_a_progress_bar(tmp_path, c
 
 @pytest.mark.slow
 def test_compare_shows_one_bar_and_draws_the_policies_of_a_world(tmp_path, monkeypatch, capsys):
-    import eaplan_drake.cli as cli
-    import eaplan_drake.simulation as simulation
+    import eaplan_drake.output.reference as reference
 
-    load = simulation.LoadNamedScenario
-    monkeypatch.setattr(cli, "COMPARE_FLIGHTS", (("plan_i", None), ("plan_i", "mpc")))
-    monkeypatch.setattr(
-        simulation,
-        "LoadNamedScenario",
-        lambda name: load(name, ["simulation: {time_limit: 6.0}"]),
-    )
-    assert cli_main(["compare", "--out", str(tmp_path)]) == 0
+    monkeypatch.setattr(reference, "COMPARE_FLIGHTS", (("plan_i", None), ("plan_i", "mpc")))
+    args = ["compare", "--out", str(tmp_path), "--set", "simulation.time_limit=6"]
+    assert cli_main(args) == 0
     captured = capsys.readouterr()
     assert captured.err.count("2/2 flights done") == 1
     assert "compare: 2 flights  [" in captured.err

@@ -8,6 +8,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from eaplan_drake.diagram import MakeEaplanDiagram
+from eaplan_drake.loading import LoadNamedScenario
 from eaplan_drake.params import IntegerMultiple, ScenarioError, TicksPerPeriod
 from eaplan_drake.rates import (
     DEFAULT_STUDY_RATES,
@@ -19,7 +20,7 @@ from eaplan_drake.rates import (
     WithinRateTolerances,
     WithRates,
 )
-from eaplan_drake.simulation import LoadNamedScenario, Simulate
+from eaplan_drake.simulation import Simulate
 from eaplan_drake.studies.sweep import LoadStudy, StudyFlights
 
 

@@ -7,6 +7,7 @@ import subprocess
 import numpy as np
 import pytest
 
+from eaplan_drake.flightlog import FlightLog
 from eaplan_drake.output.replay import (
     ArrowOutline,
     PathChunks,
@@ -15,7 +16,6 @@ from eaplan_drake.output.replay import (
     SaveFlightReplay,
 )
 from eaplan_drake.params import Scenario
-from eaplan_drake.simulation import FlightLog
 
 pytestmark = pytest.mark.slow
 
@@ -65,7 +65,13 @@ def _Log():
             "path_parameters": np.where(t < 30.0, -1000.0, 0.0)[:, None],
             "computation_parameters": np.where(t < 30.0, 2.0, 10.0)[:, None],
         },
-        summary={"status": "time_limit", "completed": False, "duration": 60.0},
+        summary={
+            "status": "time_limit",
+            "completed": False,
+            "duration": 60.0,
+            "path_parameter_bounds": [-1000.0, 0.0],
+            "computation_parameter_bounds": [[2.0], [10.0]],
+        },
     )
 
 

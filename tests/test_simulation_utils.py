@@ -7,16 +7,10 @@ import numpy as np
 import pytest
 
 from eaplan_drake.energy.battery import STATUS_BROWNOUT, STATUS_RESERVE
+from eaplan_drake.flightlog import FlightLog, LoadFlightLog, QualityMetric
+from eaplan_drake.loading import LoadScenario
 from eaplan_drake.output.graphviz import CanonicalDot
-from eaplan_drake.params import LoadScenario
-from eaplan_drake.simulation import (
-    EndReason,
-    FlightLog,
-    LoadFlightLog,
-    QualityMetric,
-    Simulate,
-    _EventTime,
-)
+from eaplan_drake.simulation import EndReason, Simulate, _EventTime
 
 
 def test_metric_matches_hand_computation():

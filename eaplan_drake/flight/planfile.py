@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 from pydrake import symbolic as sym
 
+from eaplan_drake.files import ReadTextFile
 from eaplan_drake.flight.coverage import (
     ANCHOR_SIZE,
     APPROACH,
@@ -47,7 +48,6 @@ from eaplan_drake.flight.coverage import (
     Stage,
 )
 from eaplan_drake.flight.paths import PathFunction
-from eaplan_drake.params import ReadTextFile
 
 __all__ = [
     "PlanFileError",

@@ -21,9 +21,15 @@ from matplotlib.path import Path as MplPath
 from matplotlib.transforms import ScaledTranslation
 
 from eaplan_drake.energy.computation import LoadComputationTable
+from eaplan_drake.files import AtomicWrite
 from eaplan_drake.flight.coverage import APPROACH, TurningRadius2
+from eaplan_drake.flightlog import (
+    FlightLog,
+    NormalisedParameters,
+    NormaliseParameters,
+    SampleQuality,
+)
 from eaplan_drake.params import Scenario, WindVector
-from eaplan_drake.simulation import AtomicWrite, FlightLog, NormaliseParameters
 
 __all__ = [
     "DrawPlan",
@@ -36,7 +42,6 @@ __all__ = [
     "PlotPower",
     "PlotSoc",
     "RobustRange",
-    "SampleQuality",
     "SaveFigure",
     "SaveFlightPlots",
     "SavePolicyComparison",
@@ -135,17 +140,6 @@ def RobustRange(values, quantiles=(0.005, 0.995), pad: float = 0.08) -> tuple[fl
     lo, hi = np.quantile(v, quantiles)
     span = hi - lo if hi > lo else max(abs(hi), 1.0)
     return float(lo - pad * span), float(hi + pad * span)
-
-
-def SampleQuality(log: FlightLog, scenario: Scenario) -> np.ndarray:
-    """½ c̃1 + ½ c̃2 at each sample (c̃ normalised to [0, 1] by the bounds; several computation
-    parameters averaged), the integrand of the quality in the summary."""
-    lo, hi = scenario.planner.path_parameter_bounds
-    c1n = NormaliseParameters(log["path_parameters"][:, 0], lo, hi)
-    table = LoadComputationTable(scenario.computation.table)
-    c2 = np.asarray(log["computation_parameters"], dtype=float).reshape(len(log.times), -1)
-    c2n = np.mean(NormaliseParameters(c2, table.lower, table.upper), axis=1)
-    return 0.5 * c1n + 0.5 * c2n
 
 
 # --- drawing helpers --------------------------------------------------------------------------
@@ -262,7 +256,7 @@ def PlotPath(
     poly = np.asarray(scenario.coverage.polygon, dtype=float)
     DrawSurveyArea(ax, poly, p[0])
     if colour_by == "quality":
-        value, label = SampleQuality(log, scenario), "quality ½c̃1 + ½c̃2"
+        value, label = SampleQuality(log), "quality ½c̃1 + ½c̃2"
     else:
         lo, hi = scenario.planner.path_parameter_bounds
         value = NormaliseParameters(log["path_parameters"][:, 0], lo, hi)
@@ -457,8 +451,6 @@ def PlotPolicyComparison(logs: dict, scenario: Scenario):
     path_axes = top.subplots(1, n, squeeze=False)[0]
     ax_soc, ax_c1, ax_c2 = bottom.subplots(1, 3)
     colors = plt.get_cmap("tab10")
-    lo, hi = scenario.planner.path_parameter_bounds
-    table = LoadComputationTable(scenario.computation.table)
     for i, name in enumerate(names):
         log = logs[name]
         lc = PlotPath(
@@ -472,9 +464,7 @@ def PlotPolicyComparison(logs: dict, scenario: Scenario):
         t = log.times
         ax_soc.plot(t, log["soc"][:, 0], color=colors(i), label=name)
         ax_soc.plot(t[-1], log["soc"][-1, 0], "X", color=colors(i), mec="k")
-        c1n = NormaliseParameters(log["path_parameters"][:, 0], lo, hi)
-        c2 = np.asarray(log["computation_parameters"], dtype=float).reshape(len(t), -1)
-        c2n = np.mean(NormaliseParameters(c2, table.lower, table.upper), axis=1)
+        c1n, c2n = NormalisedParameters(log)
         # Each flight a little lower than the previous so equal steps stay visible.
         offset = -0.012 * i
         ax_c1.step(t, c1n + offset, where="post", color=colors(i), lw=1.3, label=name)
@@ -524,7 +514,7 @@ def _FinishTimePanel(ax, handles, ncol: int, time_range, title: str) -> None:
 
 def SaveFigure(fig, path: str | Path, dpi: int = 110) -> Path:
     """Saves ``fig`` to ``path`` whole or not at all (temporary file, fsync, rename; see
-    :func:`~eaplan_drake.simulation.AtomicWrite`) and closes it; the format is the suffix's."""
+    :func:`~eaplan_drake.files.AtomicWrite`) and closes it; the format is the suffix's."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fmt = path.suffix.lstrip(".") or "png"

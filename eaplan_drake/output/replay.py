@@ -24,15 +24,13 @@ and tested on its own; only :func:`SaveFlightReplay` touches Meshcat.
 """
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from eaplan_drake.energy.computation import LoadComputationTable
+from eaplan_drake.files import AtomicWrite
+from eaplan_drake.flightlog import FlightLog, NormalisedParameters
 from eaplan_drake.params import Scenario
-from eaplan_drake.simulation import FlightLog, NormaliseParameters
 
 __all__ = [
     "ArrowOutline",
@@ -220,12 +218,9 @@ def SaveFlightReplay(
         p = np.asarray(log["position"], dtype=float) / UNIT
         heading = np.asarray(log["heading"], dtype=float)[:, 0]
         soc = np.asarray(log["soc"], dtype=float)[:, 0]
-        lo, hi = scenario.planner.path_parameter_bounds
         c1 = np.asarray(log["path_parameters"], dtype=float)[:, 0]
-        c1n = NormaliseParameters(c1, lo, hi)
-        table = LoadComputationTable(scenario.computation.table)
         c2 = np.asarray(log["computation_parameters"], dtype=float).reshape(len(log.times), -1)
-        c2n = np.mean(NormaliseParameters(c2, table.lower, table.upper), axis=1)
+        c1n, c2n = NormalisedParameters(log)
         quality = 0.5 * c1n + 0.5 * c2n
 
         poly = np.asarray(scenario.coverage.polygon, dtype=float) / UNIT
@@ -319,20 +314,6 @@ def SaveFlightReplay(
             del meshcat
     overlay = _OverlayHtml(log.times, soc, c1, c2)
     html = html.replace("</body>", overlay + "</body>", 1) if "</body>" in html else html + overlay
-    _WriteText(path, html)
-    return path
-
-
-def _WriteText(path: Path, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    AtomicWrite(path, lambda f: f.write(html), binary=False)
+    return path

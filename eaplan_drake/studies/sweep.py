@@ -38,13 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from eaplan_drake.params import (
-    BatteryFault,
-    LayerScenario,
-    OverrideFromAssignment,
-    Scenario,
-    ScenarioError,
-)
+from eaplan_drake.loading import LayerScenario, OverrideFromAssignment
+from eaplan_drake.params import BatteryFault, Scenario, ScenarioError
 from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
 
 __all__ = [
@@ -165,7 +160,7 @@ def _Value(v) -> str:
 def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, Scenario]]:
     """Every flight of the study as (row keys, scenario): row keys are ``world`` (index),
     ``policy``, ``draw`` and the varied values by key path. Scenarios are validated."""
-    from eaplan_drake.simulation import LoadNamedScenario
+    from eaplan_drake.loading import LoadNamedScenario
     from eaplan_drake.studies.worlds import LowestPlan, WithPolicy
 
     base_path = Path(directory) / study.base
@@ -393,7 +388,7 @@ def StudyReport(out: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from eaplan_drake.simulation import _AtomicWrite
+    from eaplan_drake.files import AtomicWrite
 
     out = Path(out)
     rows = _ReadRows(out / ROWS_FILE)
@@ -403,7 +398,7 @@ def StudyReport(out: str | Path) -> Path:
     ok = [r for r in rows if r["status"] != "error"]
 
     def save(fig, name):
-        _AtomicWrite(out / name, lambda f: fig.savefig(f, format="png", dpi=110), binary=True)
+        AtomicWrite(out / name, lambda f: fig.savefig(f, format="png", dpi=110), binary=True)
         plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(7, 4))
@@ -448,5 +443,5 @@ def StudyReport(out: str | Path) -> Path:
         "![quality](quality.png)\n\n![completion](completion.png)\n\n![margin](margin.png)\n"
     )
     report = out / "report.md"
-    _AtomicWrite(report, lambda f: f.write(text), binary=False)
+    AtomicWrite(report, lambda f: f.write(text), binary=False)
     return report

@@ -1,0 +1,270 @@
+"""Loading a scenario: YAML files and text, layers of overrides, and the shipped names.
+
+A scenario is a YAML mapping over the defaults of :class:`~eaplan_drake.params.Scenario` (keys
+left out keep their reference values). :func:`LoadScenario` reads a file or a string;
+:func:`LayerScenario` loads YAML layers over a scenario in order (mappings merge key by key, any
+other value, lists included, replaces: ``yaml_load_typed(defaults=…)``'s rule);
+:func:`OverrideFromAssignment` turns the command line's ``--set key.path=value`` into such a
+layer. :func:`ShippedFile` is the one place that turns "a shipped name or a YAML path" into a
+file, for scenarios and studies alike, and :func:`LoadNamedScenario` loads either.
+
+The YAML follows 1.2 where 1.1 surprises: ``1e3`` is a number, a duplicate key is an error.
+A misspelt key, a wrong type or a value out of range raises
+:class:`~eaplan_drake.params.ScenarioError` naming the key (``file:line:col`` for syntax). Nothing
+here imports pydrake until a scenario is actually loaded, so the command line can check a name
+first.
+"""
+
+import copy
+import dataclasses as dc
+import re
+import typing
+from importlib import resources
+from pathlib import Path
+
+import yaml
+
+from eaplan_drake.files import ReadTextFile
+from eaplan_drake.params import Scenario, ScenarioError, _check
+
+__all__ = [
+    "LayerScenario",
+    "LoadNamedScenario",
+    "LoadScenario",
+    "OverrideFromAssignment",
+    "ResolveFilePaths",
+    "ShippedFile",
+    "ShippedNames",
+]
+
+
+def _check_keys(schema, data, key: str) -> None:
+    """Walks raw YAML data against the dataclass schema so that unknown keys are named in full."""
+    if not dc.is_dataclass(schema) or not isinstance(data, dict):
+        return
+    hints = typing.get_type_hints(schema)
+    for name, value in data.items():
+        full = f"{key}.{name}" if key else str(name)
+        if name not in hints:
+            known = ", ".join(sorted(hints))
+            raise ScenarioError(f"{full}: unknown key (known keys here: {known})")
+        _check_type(hints[name], value, full)
+
+
+def _check_type(hint, value, key: str) -> None:
+    """Checks one YAML value against a field's type hint, naming the key on a mismatch."""
+    if dc.is_dataclass(hint):
+        if not isinstance(value, dict):
+            raise ScenarioError(f"{key}: expected a mapping of keys, got {value!r}")
+        _check_keys(hint, value, key)
+    elif typing.get_origin(hint) is list:
+        if not isinstance(value, list):
+            raise ScenarioError(f"{key}: expected a list, got {value!r}")
+        (item,) = typing.get_args(hint)
+        for i, v in enumerate(value):
+            _check_type(item, v, f"{key}[{i}]")
+    elif hint is bool:
+        _check(isinstance(value, bool), key, f"expected true or false, got {value!r}")
+    elif hint is int:
+        _check(
+            isinstance(value, int) and not isinstance(value, bool),
+            key,
+            f"expected an integer, got {value!r}",
+        )
+    elif hint is float:
+        _check(
+            isinstance(value, int | float) and not isinstance(value, bool),
+            key,
+            f"expected a number, got {value!r}",
+        )
+    elif hint is str:
+        _check(isinstance(value, str), key, f"expected a string, got {value!r}")
+
+
+def LoadScenario(
+    filename: str | Path | None = None,
+    data: str | None = None,
+    *,
+    overrides: typing.Sequence[str] = (),
+) -> Scenario:
+    """Loads and validates a :class:`Scenario` from a YAML file or string, then layers the YAML
+    ``overrides`` on it in order (as ``yaml_load_typed(defaults=…)`` does: mappings merge key by
+    key, any other value, lists included, replaces; see :func:`OverrideFromAssignment`).
+
+    Keys left out keep their reference defaults. Raises :class:`ScenarioError` (a ValueError)
+    naming the key on an unknown key, a wrong type or a value out of range.
+    """
+    if (filename is None) == (data is None):
+        raise ScenarioError("LoadScenario: give exactly one of filename= or data=")
+    if filename is not None:
+        path = Path(filename)
+        if not path.is_file():
+            raise ScenarioError(f"{path}: no such scenario file")
+        data = ReadTextFile(path, MAX_SCENARIO_BYTES, ScenarioError)
+        scenario = _LoadLayer(data, Scenario(), f"{path}: ", source=str(path))
+        return LayerScenario(ResolveFilePaths(scenario, path.parent), overrides)
+    if not isinstance(data, str):
+        raise ScenarioError(f"LoadScenario: data= must be YAML text, got {type(data).__name__}")
+    return LayerScenario(_LoadLayer(data, Scenario(), ""), overrides)
+
+
+MAX_SCENARIO_BYTES = 1_000_000
+"""Largest scenario file [bytes]."""
+
+
+def ResolveFilePaths(scenario: Scenario, base_dir: str | Path) -> Scenario:
+    """``scenario`` with a relative ``computation.table`` / ``coverage.plan_file`` path made
+    relative to ``base_dir`` (the scenario file's folder) instead of the current directory;
+    packaged names (``pednet_jetson_nano``, ``reference``, …) stay. Modifies and returns it."""
+    from eaplan_drake.energy.computation import PACKAGED_TABLES
+
+    base = Path(base_dir)
+    table = scenario.computation.table
+    if isinstance(table, str) and table and table not in PACKAGED_TABLES:
+        if not Path(table).is_absolute():
+            scenario.computation.table = str(base / table)
+    plan = scenario.coverage.plan_file
+    if isinstance(plan, str) and plan and plan not in ("reference", "reference_plan"):
+        if not Path(plan).is_absolute():
+            scenario.coverage.plan_file = str(base / plan)
+    return scenario
+
+
+def LayerScenario(scenario: Scenario, overrides: typing.Sequence[str]) -> Scenario:
+    """A copy of ``scenario`` with the YAML ``overrides`` loaded over it in order, validated."""
+    scenario = copy.deepcopy(scenario)
+    for i, text in enumerate(overrides):
+        if not isinstance(text, str):
+            raise ScenarioError(f"overrides[{i}]: expected YAML text, got {type(text).__name__}")
+        scenario = _LoadLayer(text, scenario, f"override {i + 1}: ")
+    return scenario.Validate()
+
+
+class _StrictYamlLoader(yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2's floats (``1e3``, ``5e-1`` are numbers, not strings)
+    and duplicate keys an error (YAML 1.2 forbids them; PyYAML keeps the last)."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            self.flatten_mapping(node)
+            seen = {}
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    hash(key)
+                except TypeError:  # an unhashable key: the base class says so
+                    continue
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        None,
+                        None,
+                        f"duplicate key {key!r} (first on line {seen[key]})",
+                        key_node.start_mark,
+                    )
+                seen[key] = key_node.start_mark.line + 1
+        return super().construct_mapping(node, deep=deep)
+
+
+_StrictYamlLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _YamlData(data: str, source: str):
+    """The raw YAML data of ``data`` (:class:`_StrictYamlLoader`); a syntax error is one line
+    ``source:line:col: invalid YAML: problem``."""
+    try:
+        return yaml.load(data, Loader=_StrictYamlLoader)  # noqa: S506 (a SafeLoader)
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark or e.context_mark
+        problem = " ".join(str(e.problem or e.context or "syntax error").split())
+        at = f"{source}:{mark.line + 1}:{mark.column + 1}" if mark else source
+        raise ScenarioError(f"{at}: invalid YAML: {problem}") from None
+    except (yaml.YAMLError, RecursionError) as e:
+        raise ScenarioError(f"{source}: invalid YAML: {' '.join(str(e).split())}") from None
+
+
+def _LoadLayer(data: str, defaults: Scenario, where: str, source: str = "") -> Scenario:
+    """``defaults`` with the YAML ``data`` loaded over it (keys checked first)."""
+    from pydrake.common.yaml import yaml_load_typed
+
+    raw = _YamlData(data, source or where.rstrip(": ") or "<yaml>")
+    if raw is None:
+        raw = {}
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"{where}the scenario must be a mapping of keys at the top level")
+    _check_keys(Scenario, raw, "")
+    if not raw:
+        return defaults
+    try:
+        return yaml_load_typed(schema=Scenario, data=data, defaults=defaults)
+    except (RuntimeError, ValueError, TypeError) as e:
+        raise ScenarioError(f"{where}wrong type: {' '.join(str(e).split())}") from None
+
+
+def OverrideFromAssignment(assignment: str) -> str:
+    """The YAML layer of one ``key.path=value`` assignment (the CLI's ``--set``), e.g.
+    ``battery.capacity=2.5`` or ``battery.faults=[{time: 90, soc_drop: 0.1}]``; the value is
+    YAML. Raises :class:`ScenarioError` for a malformed assignment or an unknown key."""
+    key, sep, value = assignment.partition("=")
+    parts = key.strip().split(".")
+    if not sep or not all(p.isidentifier() for p in parts):
+        raise ScenarioError(
+            f"--set {assignment!r}: expected KEY.PATH=VALUE (e.g. battery.capacity=2.5)"
+        )
+    schema = Scenario
+    for depth, name in enumerate(parts):
+        hints = typing.get_type_hints(schema) if dc.is_dataclass(schema) else {}
+        if name not in hints:
+            full = ".".join(parts[: depth + 1])
+            known = ", ".join(sorted(hints)) if hints else "none: not a mapping"
+            raise ScenarioError(f"{full}: unknown key (known keys here: {known})")
+        schema = hints[name]
+    lines = [f"{'  ' * d}{name}:" for d, name in enumerate(parts)]
+    lines[-1] += " " + (value.strip() or "''")
+    return "\n".join(lines) + "\n"
+
+
+_KINDS = {"scenarios": "scenario", "studies": "study"}
+
+
+def ShippedNames(kind: str = "scenarios") -> list[str]:
+    """The names of the YAML files shipped in the package folder ``kind`` (``scenarios`` or
+    ``studies``), sorted."""
+    folder = resources.files("eaplan_drake") / kind
+    return sorted(f.name[: -len(".yaml")] for f in folder.iterdir() if f.name.endswith(".yaml"))
+
+
+def ShippedFile(
+    name_or_path: str | Path, kind: str = "scenarios", caller: str = "ShippedFile"
+) -> tuple[Path, bool]:
+    """``(path, shipped)`` of a YAML path (``shipped`` False) or of the shipped file of that name
+    in ``kind`` (``scenarios`` or ``studies``); raises :class:`ScenarioError` naming the shipped
+    ones when it is neither."""
+    if not isinstance(name_or_path, str | Path):
+        raise ScenarioError(
+            f"{caller}: expected a shipped name or a YAML path, got {type(name_or_path).__name__}"
+        )
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        return path, False
+    shipped = resources.files("eaplan_drake") / kind / f"{name_or_path}.yaml"
+    if not shipped.is_file():
+        raise ScenarioError(
+            f"{name_or_path}: not a YAML file nor a shipped {_KINDS[kind]} "
+            f"(shipped: {', '.join(ShippedNames(kind))})"
+        )
+    return Path(str(shipped)), True
+
+
+def LoadNamedScenario(name_or_path: str | Path, overrides: typing.Sequence[str] = ()) -> Scenario:
+    """A shipped scenario by name (:func:`ShippedNames`: ``plan_I``, ``plan_II``, ``plan_i``,
+    ``plan_ii``, ``survey``) or a YAML path, with the YAML ``overrides`` layered on it in order
+    (see :func:`LoadScenario`). Raises :class:`ScenarioError` with one clear line on any
+    problem."""
+    path, shipped = ShippedFile(name_or_path, "scenarios", "LoadNamedScenario")
+    if shipped:
+        return LoadScenario(data=path.read_text(), overrides=overrides)
+    return LoadScenario(filename=path, overrides=overrides)

@@ -1,0 +1,119 @@
+"""The package's layout: no import cycle (module-level or inside functions) and a command line
+whose ``--help`` imports no pydrake."""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import eaplan_drake
+
+PACKAGE = Path(eaplan_drake.__file__).resolve().parent
+
+
+def _ModuleName(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def ImportGraph() -> dict[str, set[str]]:
+    """Module → the package modules it imports anywhere in its source (at module level or in a
+    function), by ``import a.b`` or ``from a.b import c`` (``c`` counted when it is a module)."""
+    modules = {_ModuleName(p): p for p in PACKAGE.rglob("*.py")}
+    graph = {name: set() for name in modules}
+    for name, path in modules.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            targets = []
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            for target in targets:
+                if target in modules and target != name and target != "eaplan_drake":
+                    graph[name].add(target)
+    return graph
+
+
+def Cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on_stack, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_the_cycle_finder_finds_a_cycle():
+    assert Cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert Cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_the_package_has_no_import_cycle():
+    graph = ImportGraph()
+    # the walker sees module-level and function-level imports
+    assert "eaplan_drake.params" in graph["eaplan_drake.energy.battery"]
+    assert "eaplan_drake.output.replay" in graph["eaplan_drake.output.save"]
+    assert Cycles(graph) == []
+
+
+def test_help_imports_no_pydrake():
+    code = (
+        "import runpy, sys\n"
+        "sys.argv = ['eaplan_drake', '--help']\n"
+        "try:\n"
+        "    runpy.run_module('eaplan_drake', run_name='__main__')\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print('pydrake' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60
+    )
+    assert out.stdout.strip().splitlines()[-1] == "False"
+
+
+def test_the_public_face_resolves_every_name_to_its_owner():
+    import importlib
+
+    for name in eaplan_drake.__all__:
+        value = getattr(eaplan_drake, name)
+        owner = importlib.import_module(f"eaplan_drake.{eaplan_drake._PUBLIC[name]}")
+        assert value is getattr(owner, name), name
+        assert getattr(value, "__module__", owner.__name__) == owner.__name__, name
+    assert "Simulate" in dir(eaplan_drake)
+    try:
+        eaplan_drake.NoSuchName  # noqa: B018
+    except AttributeError as e:
+        assert "NoSuchName" in str(e)
+    else:
+        raise AssertionError("an unknown name must raise AttributeError")
+
+
+def test_importing_the_package_imports_no_pydrake():
+    code = "import sys, eaplan_drake; print('pydrake' in sys.modules, 'matplotlib' in sys.modules)"
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60
+    )
+    assert out.stdout.split() == ["False", "False"]
