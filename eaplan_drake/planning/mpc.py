@@ -61,7 +61,7 @@ lowest plan when it must: the survey is completed. Larger drops are not covered,
 can cover them without giving up quality everywhere: if the lowest plan ends ε above the reserve
 in a world with a drop late in the flight, every policy that has spent more than ε by then
 fails, and before the drop the world looks the same as one without it. The fault reserve sets
-that trade (README, "Planner policies").
+that trade (:ref:`policy-guarantee`).
 
 **Objective.** The paper's metric rewards the time-weighted mean of ½c̃1 + ½c̃2; the planner
 maximises the quality of the plan, J = (w1 c̃1 + w2 mean_i c̃2_i)/(w1 + w2) with c̃ the parameters
