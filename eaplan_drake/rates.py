@@ -12,7 +12,7 @@ filter in continuous time, sampled less often.
 
 :data:`RATE_PRESETS`: ``paper`` (100 Hz everywhere, the ``simulate`` default) and ``fast`` (the
 studies' default, chosen by ``benchmarks/bench_rates.py`` as the fastest setting whose flights
-stay within its stated tolerances of the paper-rate flights; README "Rates").
+stay within its stated tolerances of the paper-rate flights; :ref:`rates`).
 """
 
 import copy
