@@ -28,7 +28,7 @@ from eaplan_drake.energy.battery import SocDerivative
 from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.energy.fourier import DiscreteFourierMatrices
 from eaplan_drake.params import BatteryFault, BatteryParams, PlannerParams
-from eaplan_drake.planning.planner import Planner
+from eaplan_drake.planning.paper import Planner
 
 PERIOD = 46.0
 ORDER = 3

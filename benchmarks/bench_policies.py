@@ -300,8 +300,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     policies = [p for p in args.policies.split(",") if p]
 
-    from eaplan_drake.params import POLICIES, Scenario
+    from eaplan_drake.params import Scenario
     from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
+    from eaplan_drake.registry import POLICIES
     from eaplan_drake.studies.worlds import DrawWorld, LowestPlan, WithPolicy
 
     args.rates = args.rates or DEFAULT_STUDY_RATES

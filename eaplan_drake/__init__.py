@@ -27,7 +27,7 @@ except _metadata.PackageNotFoundError:  # imported from a source tree that is no
 _PUBLIC = {
     # the scenario
     "Scenario": "params",
-    "ScenarioError": "params",
+    "ScenarioError": "errors",
     "LoadScenario": "loading",
     "LoadNamedScenario": "loading",
     "ResolveScenario": "resolve",

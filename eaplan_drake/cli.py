@@ -32,14 +32,15 @@ import textwrap  # noqa: E402
 import threading  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+from eaplan_drake.errors import ScenarioError  # noqa: E402
 from eaplan_drake.loading import OverrideFromAssignment, ShippedFile  # noqa: E402
 from eaplan_drake.output.reference import (  # noqa: E402
     PAPER_RESULTS,
     CompareScenarios,
     CompareTable,
 )
-from eaplan_drake.params import POLICIES, ScenarioError  # noqa: E402
 from eaplan_drake.rates import RATE_PRESETS  # noqa: E402
+from eaplan_drake.registry import POLICIES  # noqa: E402
 
 __all__ = ["main"]
 
@@ -163,26 +164,50 @@ def _Compare(args) -> int:
 
 
 def _Sweep(args) -> int:
-    try:
-        import joblib  # noqa: F401
-    except ImportError:
-        raise ScenarioError("sweep needs the [sweep] extra: pip install -e '.[sweep]'") from None
-    from eaplan_drake.studies.sweep import LoadStudy, RunStudy, StudyReport
+    import importlib
 
+    needed = "distributed" if args.backend == "dask" else "joblib"
+    try:
+        importlib.import_module(needed)
+    except ImportError:
+        print(
+            "eaplan-drake: missing extra: sweep needs the [sweep] extra: pip install -e '.[sweep]'",
+            file=sys.stderr,
+        )
+        return 2
+    from eaplan_drake.studies.cluster import ClusterError, Wait
+    from eaplan_drake.studies.sweep import CheckJobs, LoadStudy, RunStudy, StudyReport
+
+    if args.backend == "dask":
+        if not args.scheduler:
+            raise ValueError("--backend dask needs --scheduler ADDRESS (tcp://host:8786)")
+        if args.jobs is not None:
+            raise ValueError(
+                "--jobs: not used with --backend dask (the cluster's workers and their threads "
+                "set how many flights fly at once)"
+            )
+        Wait(args.wait_for_workers, "--wait-for-workers")
+    elif args.scheduler:
+        raise ValueError("--scheduler: only with --backend dask")
+    else:
+        CheckJobs(1 if args.jobs is None else args.jobs, "--jobs")
     study, directory = LoadStudy(ShippedFile(args.study, "studies")[0])
     if args.rates:
         study = dc.replace(study, rates=args.rates)
-    if args.backend == "dask" and not args.scheduler:
-        raise ScenarioError("--backend dask needs --scheduler ADDRESS (tcp://host:8786)")
-    rows = RunStudy(
-        study,
-        args.out,
-        directory=directory,
-        n_jobs=args.jobs,
-        backend=args.backend,
-        scheduler=args.scheduler or None,
-        save_logs=args.save_logs,
-    )
+    try:
+        rows = RunStudy(
+            study,
+            args.out,
+            directory=directory,
+            n_jobs=args.jobs,
+            backend=args.backend,
+            scheduler=args.scheduler or None,
+            save_logs=args.save_logs,
+            wait_for_workers=args.wait_for_workers,
+        )
+    except ClusterError as e:
+        print(f"eaplan-drake: cluster error: {_OneLine(e)}", file=sys.stderr)
+        return 3
     report = StudyReport(args.out)
     errors = sum(r["status"] == "error" for r in rows)
     print(f"{len(rows)} flights ({errors} errors); report in {report}")
@@ -281,7 +306,7 @@ def main(argv=None) -> int:
     )
     p.add_argument(
         "--policy",
-        choices=POLICIES,
+        choices=POLICIES.Names(),
         default="",
         help="fly with this planner policy instead of the scenario's (name gets a suffix)",
     )
@@ -314,12 +339,40 @@ def main(argv=None) -> int:
         help="override a key of every flight (repeatable), e.g. simulation.time_limit=60",
     )
     p.set_defaults(run=_Compare)
-    p = sub.add_parser("sweep", help="fly a study (sweep / Monte Carlo) and write its report")
+    p = sub.add_parser(
+        "sweep",
+        help="fly a study (sweep / Monte Carlo) and write its report",
+        description="Fly a study and write rows.jsonl, report.md and figures in --out; running "
+        "it again flies only the flights without a row. Exit status 2: bad input or missing "
+        "extra; 3: the Dask cluster did not fly the study (no scheduler, no worker for "
+        "--wait-for-workers seconds, scheduler lost).",
+    )
     p.add_argument("study", help="shipped study (robustness, battery_size) or YAML path")
     p.add_argument("--out", required=True, help="output directory (rows.jsonl, report.md)")
-    p.add_argument("--jobs", type=int, default=1, help="parallel workers (default 1; -1 = all)")
-    p.add_argument("--backend", choices=("loky", "dask"), default="loky")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        help="loky worker processes (default 1: flights in this process; -1 = one per core); "
+        "not with --backend dask",
+    )
+    p.add_argument(
+        "--backend",
+        choices=("loky", "dask"),
+        default="loky",
+        help="where flights run: loky = --jobs worker processes on this machine (default); "
+        "dask = the workers of a running Dask cluster (--scheduler), as many at once as they "
+        "have threads",
+    )
     p.add_argument("--scheduler", default="", help="Dask scheduler address (backend dask)")
+    p.add_argument(
+        "--wait-for-workers",
+        type=float,
+        default=60.0,
+        metavar="SECONDS",
+        help="backend dask: how long to wait for the scheduler and, at the start or later, for "
+        "a connected worker before giving up (default 60)",
+    )
     p.add_argument("--save-logs", action="store_true", help="also save every flight's log")
     p.add_argument(
         "--rates",

@@ -34,7 +34,7 @@ from pydrake.systems.primitives import (
     Multiplexer,
 )
 
-from eaplan_drake.energy.battery import Battery, IsBrownout, PowerBudget
+from eaplan_drake.energy.battery import Battery
 from eaplan_drake.energy.computation import ComputationLoad
 from eaplan_drake.energy.estimator import EnergyEstimator
 from eaplan_drake.energy.sensor import AveragedVariance, PowerSensor
@@ -105,12 +105,12 @@ def _EstimatedPower(diagram: Diagram, signals: dict) -> np.ndarray:
 
 
 def _PowerBudget(diagram: Diagram, signals: dict) -> np.ndarray:
-    return PowerBudget(signals["soc"], diagram.GetSubsystemByName("battery").params)
+    return diagram.GetSubsystemByName("battery").model.PowerBudget(signals["soc"])
 
 
 def _Brownout(diagram: Diagram, signals: dict) -> np.ndarray:
-    p = diagram.GetSubsystemByName("battery").params
-    return IsBrownout(signals["true_power"], p.voltage, p.internal_resistance).astype(float)
+    model = diagram.GetSubsystemByName("battery").model
+    return np.asarray(model.IsBrownout(signals["true_power"])).astype(float)
 
 
 LOG_DERIVED = {

@@ -24,8 +24,9 @@ from pathlib import Path
 
 import yaml
 
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import ReadTextFile
-from eaplan_drake.params import Scenario, ScenarioError, _check
+from eaplan_drake.params import Scenario, _check
 
 __all__ = [
     "LayerScenario",

@@ -16,6 +16,9 @@ import typing
 
 import numpy as np
 
+from eaplan_drake.errors import ScenarioError
+from eaplan_drake.registry import AIRCRAFT_MODELS, BATTERY_MODELS, POLICIES
+
 __all__ = [
     "BatteryFault",
     "BatteryParams",
@@ -26,7 +29,6 @@ __all__ = [
     "EstimatorParams",
     "GuidanceParams",
     "MotionPowerParams",
-    "POLICIES",
     "PlannerParams",
     "Scenario",
     "ScenarioError",
@@ -36,10 +38,6 @@ __all__ = [
     "WindParams",
     "WindVector",
 ]
-
-
-class ScenarioError(ValueError):
-    """A scenario (YAML or dataclass) has a bad key, type or value; the message names the key."""
 
 
 # -- bounds on the fields that set an amount of work --------------------------------------------
@@ -89,8 +87,6 @@ def TicksPerPeriod(period: float, time_step: float | None) -> int:
 
 MIN_MAX_STEP, MAX_MAX_STEP = 1e-4, 1.0
 """Range of simulation.max_step [s]."""
-PLANT_MODELS = ("continuous", "exact_arc")
-"""Values of simulation.plant."""
 MIN_PLANNER_PERIOD, MAX_PLANNER_PERIOD = 0.1, 600.0
 """Range of planner.period [s]."""
 MAX_PLANNER_STEPS = 1e5
@@ -376,8 +372,12 @@ class BatteryParams:
     """Reserve: the flight fails if b reaches it before the survey ends [-], in [0, 1)."""
     faults: list[BatteryFault] = dc.field(default_factory=list)
     """Sudden SoC drops (plan i: −6 % at 93 s, −9 % at 270 s)."""
+    model: str = "rint"
+    """Battery model, one of :data:`~eaplan_drake.registry.BATTERY_MODELS` (``rint``: the Rint
+    circuit above); the battery system and the planner's prediction both use it."""
 
     def Validate(self, key: str = "battery") -> None:
+        BATTERY_MODELS.Check(self.model, f"{key}.model")
         _positive(self.voltage, f"{key}.voltage")
         _positive(self.internal_resistance, f"{key}.internal_resistance")
         _positive(self.capacity, f"{key}.capacity")
@@ -491,10 +491,6 @@ class EstimatorParams:
         return int(order)
 
 
-POLICIES = ("mpc", "paper", "greedy", "greedy_authors", "static", "hindsight")
-"""Names of the planner policies (``planner.policy``); see :mod:`eaplan_drake.planning.policies`."""
-
-
 @dc.dataclass
 class PlannerParams:
     """Planner-scheduler: which policy decides c1 and c2, and its parameters.
@@ -580,11 +576,7 @@ class PlannerParams:
     """Number of equally spaced c1 values of the hindsight grid (× every table value of c2)."""
 
     def Validate(self, key: str = "planner") -> None:
-        _check(
-            self.policy in POLICIES,
-            f"{key}.policy",
-            f"must be one of {', '.join(POLICIES)}, got {self.policy!r}",
-        )
+        POLICIES.Check(self.policy, f"{key}.policy")
         _in_range(self.period, f"{key}.period", MIN_PLANNER_PERIOD, MAX_PLANNER_PERIOD)
         _check(
             _is_int(self.horizon) and 1 <= self.horizon <= MAX_HORIZON,
@@ -673,9 +665,10 @@ class SimulationParams:
     """Integrator (maximum) step [s]; the 100 Hz sensor events cap the step at 0.01 s anyway.
     With ``plant: exact_arc`` it is the plant's fixed update period h [s] instead."""
     plant: str = "exact_arc"
-    """Aircraft model, one of :data:`PLANT_MODELS`: ``exact_arc`` (the default), the unicycle
-    stepped exactly every ``max_step`` with the turn rate held over the step, as a 100 Hz autopilot
-    holds its command (plant and guidance run once per step; ``integrator`` is then unused), or
+    """Aircraft model, one of :data:`~eaplan_drake.registry.AIRCRAFT_MODELS`: ``exact_arc`` (the
+    default), the unicycle stepped exactly every ``max_step`` with the turn rate held over the
+    step, as a 100 Hz autopilot holds its command (plant and guidance run once per step;
+    ``integrator`` is then unused), or
     ``continuous``, the unicycle integrated by ``integrator`` with the guidance re-evaluated inside
     the step (the loop of releases before 0.2, bit for bit). The two differ by the hold of the
     command, first order in the step: ≤ 0.2 m of track and ≤ 2e-5 of final SoC at 0.01 s on the
@@ -700,11 +693,7 @@ class SimulationParams:
             f"must be one of {', '.join(schemes)}, got {self.integrator!r}",
         )
         _in_range(self.max_step, f"{key}.max_step", MIN_MAX_STEP, MAX_MAX_STEP)
-        _check(
-            self.plant in PLANT_MODELS,
-            f"{key}.plant",
-            f"must be one of {', '.join(PLANT_MODELS)}, got {self.plant!r}",
-        )
+        AIRCRAFT_MODELS.Check(self.plant, f"{key}.plant")
 
 
 @dc.dataclass

@@ -20,7 +20,8 @@ import dataclasses as dc
 
 import numpy as np
 
-from eaplan_drake.params import Scenario, ScenarioError
+from eaplan_drake.errors import ScenarioError
+from eaplan_drake.params import Scenario
 
 __all__ = [
     "DEFAULT_STUDY_RATES",

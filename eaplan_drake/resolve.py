@@ -24,15 +24,19 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.energy.computation import ComputationTable, LoadComputationTable
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.flight.coverage import CheckCoverageGeometry, PlanSource
 from eaplan_drake.flight.paths import PathFunction
-from eaplan_drake.flight.planfile import MakePlanSource, PlanFile
+from eaplan_drake.flight.planfile import PlanFile
 from eaplan_drake.flight.plant import MaxHeadingRate
 from eaplan_drake.loading import ResolveFilePaths
-from eaplan_drake.params import MAX_SURVEY_LINES, Scenario, ScenarioError
+from eaplan_drake.params import MAX_SURVEY_LINES, Scenario
+from eaplan_drake.registry import PLAN_SOURCES
 
 __all__ = [
     "MAX_PLAN_STAGES",
+    "MakePlanSource",
+    "PlanSourceName",
     "PeakCircleHeadingRate",
     "ResolveScenario",
     "ResolvedScenario",
@@ -152,6 +156,19 @@ def _Plan(scenario: Scenario, table: ComputationTable) -> PlanSource:
         return MakePlanSource(scenario, initial_c1=c1_0)
     except (ValueError, OSError, RecursionError, RuntimeError) as e:
         raise ScenarioError(f"{key}: {_OneLine(e)}") from None
+
+
+def PlanSourceName(coverage) -> str:
+    """The :data:`~eaplan_drake.registry.PLAN_SOURCES` name of a scenario's plan: ``plan_file``
+    when ``coverage.plan_file`` is set, else ``zamboni``."""
+    return "plan_file" if coverage.plan_file else "zamboni"
+
+
+def MakePlanSource(scenario: Scenario, *, initial_c1: float) -> PlanSource:
+    """The plan source of ``scenario`` (:data:`~eaplan_drake.registry.PLAN_SOURCES`,
+    :func:`PlanSourceName`), starting with ``initial_c1`` [m²] (:func:`StartParameters`).
+    Raises ValueError (or OSError for a file)."""
+    return PLAN_SOURCES.Make(PlanSourceName(scenario.coverage), scenario, initial_c1)
 
 
 def _CheckZamboniGeometry(coverage, key: str = "coverage") -> None:

@@ -20,10 +20,11 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator, Simula
 
 from eaplan_drake.diagram import LoggedSignals, MakeEaplanDiagram
 from eaplan_drake.energy.battery import STATUS_BROWNOUT, STATUS_RESERVE
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import JsonSafe
 from eaplan_drake.flight.plant import NonFiniteCommandError
 from eaplan_drake.flightlog import FlightLog, NormaliseParameters, QualityMetric
-from eaplan_drake.params import CheckType, Scenario, ScenarioError
+from eaplan_drake.params import CheckType, Scenario
 from eaplan_drake.planning.planner import PlannerPolicy
 from eaplan_drake.resolve import ResolveScenario
 

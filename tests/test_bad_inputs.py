@@ -18,9 +18,10 @@ import pytest
 
 from eaplan_drake.cli import main as cli_main
 from eaplan_drake.diagram import LOGGED_SIGNALS
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.flight.plant import FixedWingDynamics, NonFiniteCommandError
 from eaplan_drake.loading import LoadScenario
-from eaplan_drake.params import Scenario, ScenarioError
+from eaplan_drake.params import Scenario
 from eaplan_drake.resolve import PeakCircleHeadingRate, ResolveScenario, TriggerDistance
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -7,6 +7,7 @@ import pickle
 import numpy as np
 import pytest
 
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.flight.coverage import (
     APPROACH,
     CoveragePolygon,
@@ -24,7 +25,7 @@ from eaplan_drake.flight.coverage import (
     ZamboniCoverage,
 )
 from eaplan_drake.flight.paths import Circle
-from eaplan_drake.params import CoverageParams, GuidanceParams, ScenarioError, VehicleParams
+from eaplan_drake.params import CoverageParams, GuidanceParams, VehicleParams
 
 V_A = 15.0
 R2_MIN = math.sqrt(3900.0)  # r2(−1000)

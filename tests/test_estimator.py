@@ -445,7 +445,7 @@ def test_estimator_aperiodic_state_follows_an_aperiodic_load_better():
 
 
 def test_estimator_aperiodic_params_validated():
-    from eaplan_drake.params import ScenarioError
+    from eaplan_drake.errors import ScenarioError
 
     with pytest.raises(ScenarioError, match="estimator.aperiodic_time_constant"):
         EstimatorParams(aperiodic_time_constant=-1.0).Validate()
@@ -463,7 +463,7 @@ def test_closed_loop_carries_the_aperiodic_state_to_the_planner():
     from eaplan_drake.diagram import MakeEaplanDiagram
     from eaplan_drake.energy.fourier import AugmentedOrder
     from eaplan_drake.params import Scenario
-    from eaplan_drake.planning.planner import FreeResponse
+    from eaplan_drake.planning.prediction import FreeResponse
 
     scenario = Scenario()
     scenario.estimator.aperiodic_time_constant = 15.0

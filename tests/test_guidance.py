@@ -8,6 +8,7 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.flight.guidance import (
     CheckWindBelowAirspeed,
     DesiredCourseRate,
@@ -23,7 +24,7 @@ from eaplan_drake.flight.plant import (
     GroundVelocity,
     MaxHeadingRate,
 )
-from eaplan_drake.params import GuidanceParams, ScenarioError, VehicleParams
+from eaplan_drake.params import GuidanceParams, VehicleParams
 
 VA = 15.0
 WIND = 5.0

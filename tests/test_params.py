@@ -2,8 +2,9 @@
 
 import pytest
 
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.loading import LoadScenario
-from eaplan_drake.params import Scenario, ScenarioError
+from eaplan_drake.params import Scenario
 
 
 def test_defaults_are_the_reference_numbers():

@@ -12,7 +12,6 @@ from eaplan_drake.flight.coverage import APPROACH, ArcAngle, ZamboniCoverage
 from eaplan_drake.flight.planfile import (
     REFERENCE_PLAN,
     LoadPlanFile,
-    MakePlanSource,
     ParseExpression,
     PlanFile,
     PlanFileError,
@@ -21,6 +20,7 @@ from eaplan_drake.flight.planfile import (
 )
 from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
 from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
+from eaplan_drake.resolve import MakePlanSource
 
 REFERENCE_DIR = ReferenceDirectory()
 DYN_PLAN = REFERENCE_DIR / "dyn_plan_specification.pln"

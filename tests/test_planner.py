@@ -17,25 +17,22 @@ from eaplan_drake.energy.battery import (
     RintCurrent,
     SocAfter,
     SocDerivative,
+    SocDerivativeSlope,
     TimeToSoc,
 )
 from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.flight.coverage import ScalingFactors
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.planning.planner import (
+from eaplan_drake.planning.paper import MakePlannerProgram, Planner
+from eaplan_drake.planning.planner import PlannerScheduler
+from eaplan_drake.planning.policies import MakePolicy
+from eaplan_drake.planning.prediction import (
     ChoosePathParameter,
     CoverageTimeModel,
     FreeResponse,
-    MakePlannerProgram,
-    Planner,
-    PlannerScheduler,
     SimpsonSoc,
-)
-from eaplan_drake.planning.policies import MakePolicy
-from eaplan_drake.planning.prediction import (
     SimpsonSocSensitivity,
     SimpsonSocSteps,
-    SocDerivativeSlope,
     StepLoads,
 )
 from eaplan_drake.planning.prediction import TimeToReserve as PureTimeToReserve
@@ -583,7 +580,7 @@ def test_system_forced_failure_is_counted_and_falls_back(table):
 
 
 def test_planner_params_power_model_and_solver_are_validated():
-    from eaplan_drake.params import ScenarioError
+    from eaplan_drake.errors import ScenarioError
 
     with pytest.raises(ScenarioError, match="planner.power_model"):
         PlannerParams(power_model="cubic").Validate()

@@ -9,6 +9,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.flight.guidance import HeadingRateCommand
 from eaplan_drake.flight.paths import Circle, Line
 from eaplan_drake.flight.plant import (
@@ -28,7 +29,7 @@ from eaplan_drake.flight.plant import (
     SaturatedHeadingRate,
     WrapToPi,
 )
-from eaplan_drake.params import MotionPowerParams, ScenarioError, SimulationParams, VehicleParams
+from eaplan_drake.params import MotionPowerParams, SimulationParams, VehicleParams
 
 VA = 15.0
 WIND = 5.0

@@ -8,8 +8,9 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from eaplan_drake.diagram import MakeEaplanDiagram
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.loading import LoadNamedScenario
-from eaplan_drake.params import IntegerMultiple, ScenarioError, TicksPerPeriod
+from eaplan_drake.params import IntegerMultiple, TicksPerPeriod
 from eaplan_drake.rates import (
     DEFAULT_STUDY_RATES,
     RATE_PRESETS,

@@ -31,6 +31,7 @@ import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import EventStatus, LeafSystem
 
+from eaplan_drake.energy.battery_model import AsBatteryModel, BatteryModel
 from eaplan_drake.params import BatteryParams
 
 __all__ = [
@@ -44,6 +45,8 @@ __all__ = [
     "RintCurrent",
     "SocAfter",
     "SocDerivative",
+    "SocDerivativeSlope",
+    "RintBatteryModel",
     "TimeToSoc",
 ]
 
@@ -87,6 +90,20 @@ def SocDerivative(power, params: BatteryParams):
     """
     current = RintCurrent(power, params.voltage, params.internal_resistance)
     return -params.k_b * current / params.capacity
+
+
+def SocDerivativeSlope(power, params: BatteryParams):
+    """∂ḃ/∂y = −k_b I'(y)/Q_c [1/(W s)] of :func:`SocDerivative`.
+
+    I'(y) = 1/sqrt(V² − 4 R_r y) below :func:`MaxDeliverablePower`; 0 at
+    and above it, where the current saturates at V/(2 R_r).
+    """
+    V, R = float(params.voltage), float(params.internal_resistance)
+    y = np.asarray(power, dtype=float)
+    below = y < MaxDeliverablePower(V, R)
+    disc = np.where(below, V * V - 4.0 * R * y, 1.0)
+    slope = np.where(below, 1.0 / np.sqrt(disc), 0.0)
+    return -params.k_b * slope / params.capacity
 
 
 def SocAfter(b0, power, duration, params: BatteryParams):
@@ -145,6 +162,30 @@ def PowerBudget(b, params: BatteryParams):
     """
     budget = np.multiply(b, params.capacity * params.voltage)
     return float(budget) if budget.ndim == 0 else budget
+
+
+class RintBatteryModel(BatteryModel):
+    """``battery.model: rint``: the functions above as a
+    :class:`~eaplan_drake.energy.battery_model.BatteryModel` (each method calls one of them with
+    these parameters, so the battery system and the planner compute the same numbers)."""
+
+    def SocRate(self, power):
+        return SocDerivative(power, self.params)
+
+    def SocRateSlope(self, power):
+        return SocDerivativeSlope(power, self.params)
+
+    def SocAfter(self, soc, power, duration):
+        return SocAfter(soc, power, duration, self.params)
+
+    def Current(self, power):
+        return RintCurrent(power, self.params.voltage, self.params.internal_resistance)
+
+    def IsBrownout(self, power):
+        return IsBrownout(power, self.params.voltage, self.params.internal_resistance)
+
+    def PowerBudget(self, soc):
+        return PowerBudget(soc, self.params)
 
 
 # -- Drake system -------------------------------------------------------------------------------
@@ -209,6 +250,7 @@ class Battery(LeafSystem):
         if not (math.isfinite(h) and h > 0.0):
             raise ValueError(f"time_step: must be a finite number > 0 [s], got {time_step!r}")
         self._params = copy.deepcopy(params)
+        self._model = AsBatteryModel(self._params)
         self._time_step = h
         self._faults = sorted(self._params.faults, key=lambda f: f.time)
         self._fault_times = [float(f.time) - 1e-9 for f in self._faults]
@@ -244,6 +286,11 @@ class Battery(LeafSystem):
         """The battery's own copy of its parameters."""
         return self._params
 
+    @property
+    def model(self) -> BatteryModel:
+        """The battery model it steps (``params.model``)."""
+        return self._model
+
     # -- hot path ------------------------------------------------------------------------------
 
     def _Power(self, context) -> float:
@@ -258,11 +305,10 @@ class Battery(LeafSystem):
         # Drake fills discrete_state with the context's values before this handler
         # (LeafSystem::DispatchDiscreteVariableUpdateHandler): one numpy view, read and written
         # in place, in the order of BatteryState (soc, held_power, next_fault).
-        p = self._params
         x = discrete_state.get_mutable_value()
         soc, held_power, next_fault = x.tolist()
         y = self._Power(context)
-        b = SocAfter(soc, held_power, self._time_step, p)
+        b = self._model.SocAfter(soc, held_power, self._time_step)
         k = int(next_fault)
         if k < len(self._fault_times):
             t = context.get_time()
@@ -272,9 +318,9 @@ class Battery(LeafSystem):
         x[0] = b
         x[1] = y
         x[2] = k
-        if IsBrownout(y, p.voltage, p.internal_resistance):
+        if self._model.IsBrownout(y):
             return EventStatus.ReachedTermination(self, STATUS_BROWNOUT)
-        if b <= p.reserve_soc:
+        if b <= self._params.reserve_soc:
             return EventStatus.ReachedTermination(self, STATUS_RESERVE)
         return None
 
@@ -283,13 +329,11 @@ class Battery(LeafSystem):
 
     def _CalcPowerBudget(self, context, output) -> None:
         b = context.get_discrete_state_vector().GetAtIndex(0)
-        output.SetAtIndex(0, PowerBudget(b, self._params))
+        output.SetAtIndex(0, self._model.PowerBudget(b))
 
     def _CalcCurrent(self, context, output) -> None:
-        p = self._params
-        output.SetAtIndex(0, RintCurrent(self._Power(context), p.voltage, p.internal_resistance))
+        output.SetAtIndex(0, self._model.Current(self._Power(context)))
 
     def _CalcBrownout(self, context, output) -> None:
-        p = self._params
-        brownout = IsBrownout(self._Power(context), p.voltage, p.internal_resistance)
+        brownout = self._model.IsBrownout(self._Power(context))
         output.SetAtIndex(0, 1.0 if brownout else 0.0)

@@ -69,6 +69,7 @@ __all__ = [
     "StageTime",
     "CoverageTime",
     "MakeCoveragePlan",
+    "MakeZamboniPlanSource",
     "ScalingFactors",
     "TurningRadius2",
 ]
@@ -854,4 +855,13 @@ def MakeCoveragePlan(coverage: "CoverageParams", vehicle, *, c1: float, k_e: flo
         airspeed=vehicle.airspeed,
         initial_c1=c1,
         k_e=k_e,
+    )
+
+
+def MakeZamboniPlanSource(scenario, initial_c1: float) -> "ZamboniCoverage":
+    """The generated Zamboni-like coverage of ``scenario.coverage`` (:func:`MakeCoveragePlan`),
+    flown from ``vehicle.initial_position`` at ``vehicle.airspeed`` with the field gain
+    ``guidance.k_e``, starting with ``initial_c1`` [m²]. Raises ValueError."""
+    return MakeCoveragePlan(
+        scenario.coverage, scenario.vehicle, c1=initial_c1, k_e=scenario.guidance.k_e
     )

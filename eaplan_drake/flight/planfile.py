@@ -42,7 +42,6 @@ from eaplan_drake.flight.coverage import (
     ANCHOR_SIZE,
     APPROACH,
     NUM_PRIMITIVES,
-    MakeCoveragePlan,
     PathLength,
     PlanSource,
     Stage,
@@ -57,7 +56,7 @@ __all__ = [
     "PlanFile",
     "ReadPlanFile",
     "LoadPlanFile",
-    "MakePlanSource",
+    "MakePlanFileSource",
     "REFERENCE_PLAN",
 ]
 
@@ -665,19 +664,15 @@ def LoadPlanFile(
     )
 
 
-def MakePlanSource(scenario, *, initial_c1: float) -> PlanSource:
-    """The plan source of ``scenario`` (a :class:`~eaplan_drake.params.Scenario`): its
-    ``coverage.plan_file`` (c1 over ``planner.path_parameter_bounds``) or else the generated
-    Zamboni-like coverage of ``coverage``; flown from ``vehicle.initial_position`` at
-    ``vehicle.airspeed`` with the field gain ``guidance.k_e``, starting with ``initial_c1`` [m²]
-    (:func:`~eaplan_drake.resolve.StartParameters`). Raises ValueError (or OSError for a file)."""
-    coverage, vehicle, k_e = scenario.coverage, scenario.vehicle, scenario.guidance.k_e
-    if coverage.plan_file:
-        return LoadPlanFile(
-            coverage.plan_file,
-            vehicle,
-            c1=initial_c1,
-            k_e=k_e,
-            c1_bounds=scenario.planner.path_parameter_bounds,
-        )
-    return MakeCoveragePlan(coverage, vehicle, c1=initial_c1, k_e=k_e)
+def MakePlanFileSource(scenario, initial_c1: float) -> PlanFile:
+    """The plan source of ``scenario``'s ``coverage.plan_file`` (an authors' ``.pln``; c1 over
+    ``planner.path_parameter_bounds``), flown from ``vehicle.initial_position`` at
+    ``vehicle.airspeed`` with the field gain ``guidance.k_e``, starting with ``initial_c1`` [m²].
+    Raises ValueError (or OSError for the file)."""
+    return LoadPlanFile(
+        scenario.coverage.plan_file,
+        scenario.vehicle,
+        c1=initial_c1,
+        k_e=scenario.guidance.k_e,
+        c1_bounds=scenario.planner.path_parameter_bounds,
+    )

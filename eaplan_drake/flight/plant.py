@@ -54,7 +54,8 @@ from pydrake.common.containers import namedview
 from pydrake.systems.framework import BasicVector_, LeafSystem, LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
-from eaplan_drake.params import PLANT_MODELS, MotionPowerParams, SimulationParams, VehicleParams
+from eaplan_drake.params import MotionPowerParams, SimulationParams, VehicleParams
+from eaplan_drake.registry import AIRCRAFT_MODELS
 
 __all__ = [
     "GRAVITY",
@@ -68,6 +69,8 @@ __all__ = [
     "FixedWingPlant_",
     "GroundVelocity",
     "LoadFactor",
+    "MakeContinuousPlant",
+    "MakeExactArcPlant",
     "MakeFixedWingPlant",
     "MaxHeadingRate",
     "MotionPower",
@@ -228,15 +231,21 @@ def WrapToPi(angle):
 
 
 def MakeFixedWingPlant(vehicle: VehicleParams, simulation: SimulationParams):
-    """The plant ``simulation.plant`` names: :class:`FixedWingPlant` (``continuous``) or
-    :class:`FixedWingArcPlant` stepped every ``simulation.max_step`` (``exact_arc``)."""
-    if simulation.plant == "continuous":
-        return FixedWingPlant(vehicle)
-    if simulation.plant == "exact_arc":
-        return FixedWingArcPlant(vehicle, step=simulation.max_step)
-    raise ValueError(
-        f"simulation.plant: must be one of {', '.join(PLANT_MODELS)}, got {simulation.plant!r}"
-    )
+    """The plant ``simulation.plant`` names in :data:`~eaplan_drake.registry.AIRCRAFT_MODELS`:
+    :class:`FixedWingPlant` (``continuous``) or :class:`FixedWingArcPlant` stepped every
+    ``simulation.max_step`` (``exact_arc``)."""
+    return AIRCRAFT_MODELS.Make(simulation.plant, vehicle, simulation)
+
+
+def MakeContinuousPlant(vehicle: VehicleParams, simulation: SimulationParams):
+    """``simulation.plant: continuous``: :class:`FixedWingPlant`, integrated by the simulator."""
+    return FixedWingPlant(vehicle)
+
+
+def MakeExactArcPlant(vehicle: VehicleParams, simulation: SimulationParams):
+    """``simulation.plant: exact_arc``: :class:`FixedWingArcPlant` stepped every
+    ``simulation.max_step``."""
+    return FixedWingArcPlant(vehicle, step=simulation.max_step)
 
 
 class _FixedWingPorts:

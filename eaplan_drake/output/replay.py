@@ -129,8 +129,8 @@ def _Flat(meshcat, path, outline_xy, z, rgba):
 
 
 def _Planned(scenario: Scenario):
-    from eaplan_drake.flight.planfile import MakePlanSource
     from eaplan_drake.output.plots import StagePoints
+    from eaplan_drake.resolve import MakePlanSource
 
     c1 = scenario.planner.initial_path_parameters[0]
     plan = MakePlanSource(scenario, initial_c1=c1)

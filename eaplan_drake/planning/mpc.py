@@ -92,7 +92,7 @@ import numpy as np
 from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.solvers import MathematicalProgram
 
-from eaplan_drake.energy.battery import IsBrownout, SocDerivative
+from eaplan_drake.energy.battery_model import AsBatteryModel
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
 from eaplan_drake.params import BatteryParams, PlannerParams
@@ -102,7 +102,6 @@ from eaplan_drake.planning.prediction import (
     PowerSurrogate,
     SimpsonSoc,
     SimpsonSocSensitivity,
-    SocDerivativeSlope,
     StepLoads,
 )
 
@@ -166,6 +165,7 @@ class MissionProblem:
         self.params = planner
         self.table = table
         self.battery = battery
+        self.battery_model = AsBatteryModel(battery)
         self.order = order  # int r, or AugmentedOrder (energy_model)
         self.state_size = StateSize(order)
         self.integer = bool(integer)
@@ -229,7 +229,7 @@ class MissionProblem:
         self._slopes = _PchipSlopes(self.u1[self._hull], self.t_rem[self._hull])
         self._cache = {}
         self._smooth_cache = {}
-        s_b = -float(SocDerivativeSlope(max(float(q[0]), 0.0), self.battery))
+        s_b = -float(self.battery_model.SocRateSlope(max(float(q[0]), 0.0)))
         sigma = math.sqrt(max(float(mean_power_variance), 0.0))
         p = self.params
         self._margin_rate = float(p.margin_sigmas) * s_b * sigma  # [1/s]
@@ -272,8 +272,8 @@ class MissionProblem:
         key = float(power)
         if key not in self._cache:
             y = self.f_half + (key - self.g_now)
-            soc = SimpsonSoc(y, self.soc0, self.battery, self.step)
-            brown = IsBrownout(y, self.battery.voltage, self.battery.internal_resistance)
+            soc = SimpsonSoc(y, self.soc0, self.battery_model, self.step)
+            brown = self.battery_model.IsBrownout(y)
             if np.any(brown):
                 first = int(np.argmax(brown))
                 soc[(first + 1) // 2 :] = -np.inf
@@ -465,14 +465,13 @@ class MissionProblem:
         nodes = self._smooth_cache.get(key)
         if nodes is None:
             y = self.f_half + (key - self.g_now)
-            dsoc = np.concatenate(
-                ([0.0], np.cumsum(SimpsonSocSensitivity(StepLoads(y), self.battery, self.step)))
-            )
+            sensitivity = SimpsonSocSensitivity(StepLoads(y), self.battery_model, self.step)
+            dsoc = np.concatenate(([0.0], np.cumsum(sensitivity)))
             nodes = (
-                SimpsonSoc(y, self.soc0, self.battery, self.step),
-                np.asarray(SocDerivative(y[0::2], self.battery)),
+                SimpsonSoc(y, self.soc0, self.battery_model, self.step),
+                np.asarray(self.battery_model.SocRate(y[0::2])),
                 dsoc,
-                np.asarray(SocDerivativeSlope(y[0::2], self.battery)),
+                np.asarray(self.battery_model.SocRateSlope(y[0::2])),
             )
             self._smooth_cache[key] = nodes
         return nodes

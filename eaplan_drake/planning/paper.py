@@ -75,7 +75,7 @@ import numpy as np
 from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.solvers import MathematicalProgram
 
-from eaplan_drake.energy.battery import PowerBudget
+from eaplan_drake.energy.battery_model import AsBatteryModel
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
 from eaplan_drake.params import BatteryParams, PlannerParams
@@ -122,8 +122,8 @@ class PlannerProgram:
         self.horizon, self.num_computation = N, sigma
         self.step = float(planner.period)
         self.surrogate = PowerSurrogate(table, planner.power_model)
-        self._battery = copy.deepcopy(battery)
-        self._budget_per_soc = float(PowerBudget(1.0, battery))
+        self._battery = AsBatteryModel(copy.deepcopy(battery))
+        self._budget_per_soc = float(self._battery.PowerBudget(1.0))
         # Per step: free response f at the 2N + 1 half-steps, b0, ĝ(c_prev).
         self._free = np.zeros(2 * N + 1)
         self._soc0 = 1.0
@@ -207,7 +207,7 @@ class PlannerProgram:
         u = xv[: N * sigma].reshape(N, sigma)
         s = xv[N * sigma :]
         ys, soc = self._Model(u)
-        budget = PowerBudget(soc, self._battery)
+        budget = self._battery.PowerBudget(soc)
         out = np.concatenate((ys[0] - budget[:-1] - s, ys[2] - budget[1:] - s))
         if not autodiff:
             return out
@@ -308,6 +308,7 @@ class Planner:
         self.order = order  # int r, or AugmentedOrder (energy_model)
         self.state_size = StateSize(order)
         self.battery = battery
+        self.battery_model = AsBatteryModel(battery)
         self.coverage_time = CoverageTimeModel(
             tuple(planner.path_parameter_bounds), tuple(coverage_time_bounds)
         )
@@ -316,7 +317,7 @@ class Planner:
         N, h = planner.horizon, float(planner.period)
         self.horizon, self.step = N, h
         self.lower, self.upper, self.span = table.lower, table.upper, table.upper - table.lower
-        self._budget_per_soc = float(PowerBudget(1.0, battery))
+        self._budget_per_soc = float(self.battery_model.PowerBudget(1.0))
         # Candidates of the integer mapping, best objective first (ties: larger parameters).
         grid, power = GridCandidates(table)
         u = (grid - self.lower) / self.span
@@ -348,7 +349,7 @@ class Planner:
         offsets ``dg`` [W] (array) given the free response at the step's start, middle, end."""
         dg = np.atleast_1d(dg)
         loads = StepLoads(np.asarray(f3, dtype=float)[:, None], dg[None, :])  # 3×1×K
-        soc_end = SimpsonSocSteps(loads, soc, self.battery, self.step)[1]
+        soc_end = SimpsonSocSteps(loads, soc, self.battery_model, self.step)[1]
         ok = (f3[0] + dg <= self._budget_per_soc * soc + _FEASIBILITY_TOL) & (
             f3[2] + dg <= self._budget_per_soc * soc_end + _FEASIBILITY_TOL
         )
@@ -389,7 +390,7 @@ class Planner:
         battery
         and step: ``f_half`` the free response at t0 + k·h/2 [W], ``dg_steps`` the planned
         g(c_k) − g(c_prev) [W] (the last one held), ``soc0`` [-]."""
-        return TimeToReserve(f_half, dg_steps, soc0, self.battery, self.step)
+        return TimeToReserve(f_half, dg_steps, soc0, self.battery_model, self.step)
 
     def Fallback(
         self, path_parameter: float, status: str, warm=None, computation=None

@@ -31,29 +31,12 @@ from pydrake.systems.framework import LeafSystem
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import StateSize
 from eaplan_drake.params import PlannerParams
-from eaplan_drake.planning.paper import MakePlannerProgram, Planner, PlannerProgram, PlannerSolution
-from eaplan_drake.planning.prediction import (
-    ChoosePathParameter,
-    CoverageTimeModel,
-    FreeResponse,
-    PowerSurrogate,
-    SimpsonSoc,
-)
 
 __all__ = [
-    "ChoosePathParameter",
-    "CoverageTimeModel",
-    "FreeResponse",
-    "MakePlannerProgram",
-    "Planner",
     "PlannerDecision",
     "PlannerObservation",
     "PlannerPolicy",
-    "PlannerProgram",
     "PlannerScheduler",
-    "PlannerSolution",
-    "PowerSurrogate",
-    "SimpsonSoc",
 ]
 
 

@@ -36,11 +36,17 @@ from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.planning.mpc import MissionProblem, MissionProgram
 from eaplan_drake.planning.paper import Planner
 from eaplan_drake.planning.planner import PlannerDecision, PlannerObservation, PlannerPolicy
+from eaplan_drake.registry import POLICIES
 
 __all__ = [
     "GreedyAuthorsPolicy",
     "GreedyPolicy",
+    "MakeGreedyAuthorsPolicy",
+    "MakeGreedyPolicy",
+    "MakeMpcPolicy",
+    "MakePaperPolicy",
     "MakePolicy",
+    "MakeStaticPolicy",
     "MpcPolicy",
     "PaperPolicy",
     "StaticPolicy",
@@ -277,26 +283,55 @@ def MakePolicy(
     path_parameter_grid,
     integer: bool = True,
 ) -> PlannerPolicy:
-    """The policy ``planner.policy`` names (``hindsight`` flights are static).
+    """The policy ``planner.policy`` names in :data:`~eaplan_drake.registry.POLICIES`
+    (``hindsight`` flights are static).
 
     ``coverage_time_bounds`` = (t(c̲1), t(c̄1)) [s] of the Eq. 10 line (paper, greedy_authors);
     ``path_parameter_grid`` = the c1 values [m²] of the sequencer's ``remaining_time`` (mpc,
     greedy). Parameters are copied: later changes to the caller's objects do not reach the policy.
+    Every registered factory takes these same arguments.
     """
     planner = copy.deepcopy(planner)
     battery = copy.deepcopy(battery)
     planner.Validate("planner")
     battery.Validate("battery")
-    name = planner.policy
-    if planner.is_static:
-        return StaticPolicy()
-    if name in ("paper", "greedy_authors"):
-        paper = Planner(planner, table, order, battery, coverage_time_bounds, integer)
-        return PaperPolicy(paper) if name == "paper" else GreedyAuthorsPolicy(paper)
-    if name == "greedy":
-        no_margin = copy.deepcopy(planner)
-        no_margin.margin_floor = no_margin.margin_sigmas = no_margin.fault_reserve = 0.0
-        problem = MissionProblem(no_margin, table, order, battery, path_parameter_grid, integer)
-        return GreedyPolicy(problem)
+    return POLICIES.Make(
+        planner.policy,
+        planner,
+        table,
+        order,
+        battery,
+        coverage_time_bounds=coverage_time_bounds,
+        path_parameter_grid=path_parameter_grid,
+        integer=integer,
+    )
+
+
+def MakeStaticPolicy(planner, table, order, battery, **_) -> PlannerPolicy:
+    """``static`` (and ``hindsight``): :class:`StaticPolicy`."""
+    return StaticPolicy()
+
+
+def MakePaperPolicy(planner, table, order, battery, *, coverage_time_bounds, integer, **_):
+    """``paper``: :class:`PaperPolicy`, the paper's output MPC."""
+    return PaperPolicy(Planner(planner, table, order, battery, coverage_time_bounds, integer))
+
+
+def MakeGreedyAuthorsPolicy(planner, table, order, battery, *, coverage_time_bounds, integer, **_):
+    """``greedy_authors``: :class:`GreedyAuthorsPolicy`."""
+    paper = Planner(planner, table, order, battery, coverage_time_bounds, integer)
+    return GreedyAuthorsPolicy(paper)
+
+
+def MakeGreedyPolicy(planner, table, order, battery, *, path_parameter_grid, integer, **_):
+    """``greedy``: :class:`GreedyPolicy`, the mission problem with no margin and no reserve."""
+    no_margin = copy.deepcopy(planner)
+    no_margin.margin_floor = no_margin.margin_sigmas = no_margin.fault_reserve = 0.0
+    problem = MissionProblem(no_margin, table, order, battery, path_parameter_grid, integer)
+    return GreedyPolicy(problem)
+
+
+def MakeMpcPolicy(planner, table, order, battery, *, path_parameter_grid, integer, **_):
+    """``mpc`` (the default): :class:`MpcPolicy`, the mission-feasible MPC."""
     problem = MissionProblem(planner, table, order, battery, path_parameter_grid, integer)
     return MpcPolicy(problem)

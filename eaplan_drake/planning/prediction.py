@@ -3,16 +3,18 @@
 Pure functions over numpy, one implementation each:
 
 - :func:`FreeResponse`: f(t) = C expm(A t) q̂, the free response of the energy model [W].
-- :func:`SimpsonSocSteps` (:func:`SimpsonSoc` for a load without jumps): *the* SoC rollout.
-  The Rint battery ḃ = −k_b I(y)/Q_c (Lemma III.3,
-  :func:`~eaplan_drake.energy.battery.SocDerivative`,
-  saturating at brown-out) does not depend on b, so RK4 over a step of length h reduces to
-  Simpson's rule on the load at its start, middle and end (exact up to O(h⁵)):
+- :func:`SimpsonSocSteps` (:func:`SimpsonSoc` for a load without jumps): *the* SoC rollout, on
+  the scenario's battery model (:class:`~eaplan_drake.energy.battery_model.BatteryModel`; the
+  Rint battery ḃ = −k_b I(y)/Q_c of Lemma III.3, saturating at brown-out, by default). ḃ does
+  not depend on b, so RK4 over a step of length h reduces to Simpson's rule on the load at its
+  start, middle and end (exact up to O(h⁵)):
 
       b_{k+1} = b_k + h · (ḃ(y_k⁰) + 4 ḃ(y_k^½) + ḃ(y_k¹)) / 6.
 
   :func:`SimpsonSocSensitivity` is its derivative with respect to a load offset held over each
-  step (the NLPs' analytic Jacobians), from :func:`SocDerivativeSlope` = ∂ḃ/∂y.
+  step (the NLPs' analytic Jacobians), from the model's ∂ḃ/∂y
+  (:meth:`~eaplan_drake.energy.battery_model.BatteryModel.SocRateSlope`).
+
 - :func:`TimeToReserve`: t_b of Alg. 2 l. 17–23 from that rollout.
 - :class:`CoverageTimeModel` and :func:`ChoosePathParameter`: the Eq. 10 line t(c1) = ν c1 + τ
   (ν, τ from :func:`~eaplan_drake.flight.coverage.ScalingFactors`) and the path rule of Alg. 2 l.
@@ -21,6 +23,9 @@ Pure functions over numpy, one implementation each:
 - :class:`PowerSurrogate`: the smooth model ĝ of the computation table inside the NLPs (quadratic
   least-squares fit, or the Eq. 11 line of
   :meth:`~eaplan_drake.energy.computation.ComputationTable.scaling_factors`).
+
+Each function that takes ``battery`` accepts a battery model or the ``battery`` parameters (then
+the model they name, :func:`~eaplan_drake.energy.battery_model.AsBatteryModel`).
 """
 
 import dataclasses as dc
@@ -29,7 +34,7 @@ import math
 
 import numpy as np
 
-from eaplan_drake.energy.battery import IsBrownout, MaxDeliverablePower, SocDerivative
+from eaplan_drake.energy.battery_model import AsBatteryModel, BatteryModel
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import FreeResponseMatrix
 from eaplan_drake.flight.coverage import ScalingFactors
@@ -44,7 +49,6 @@ __all__ = [
     "SimpsonSoc",
     "SimpsonSocSensitivity",
     "SimpsonSocSteps",
-    "SocDerivativeSlope",
     "StepLoads",
     "TimeToReserve",
 ]
@@ -81,50 +85,41 @@ def StepLoads(y_half, dg=0.0) -> np.ndarray:
     return np.stack((y[0:-2:2] + dg, y[1:-1:2] + dg, y[2::2] + dg))
 
 
-def SimpsonSocSteps(y_steps, soc0, battery: BatteryParams, step: float) -> np.ndarray:
+def SimpsonSocSteps(
+    y_steps, soc0, battery: BatteryModel | BatteryParams, step: float
+) -> np.ndarray:
     """SoC [-] at the n + 1 nodes of n steps of length ``step`` [s] from b_0 = ``soc0``.
 
     ``y_steps`` (3, n, …): the load at the start, middle and end of each step [W]
     (:func:`StepLoads`); further axes are independent loads. ḃ does not depend on b, so RK4 is
-    Simpson's rule, b_{k+1} = b_k + step·(ḃ⁰ + 4ḃ^½ + ḃ¹)/6, with ḃ of
-    :func:`~eaplan_drake.energy.battery.SocDerivative` (a brown-out load draws the current at the
-    maximum power). Not clipped.
+    Simpson's rule, b_{k+1} = b_k + step·(ḃ⁰ + 4ḃ^½ + ḃ¹)/6, with ḃ of the battery model
+    (:meth:`~eaplan_drake.energy.battery_model.BatteryModel.SocRate`; for Rint a brown-out load
+    draws the current at the maximum power). Not clipped.
     """
-    bdot = np.asarray(SocDerivative(np.asarray(y_steps, dtype=float), battery))
+    bdot = np.asarray(AsBatteryModel(battery).SocRate(np.asarray(y_steps, dtype=float)))
     drop = step * (bdot[0] + 4.0 * bdot[1] + bdot[2]) / 6.0
     zero = np.zeros((1,) + drop.shape[1:])
     return soc0 + np.concatenate((zero, np.cumsum(drop, axis=0)))
 
 
-def SimpsonSoc(y_half, soc0, battery: BatteryParams, step: float) -> np.ndarray:
+def SimpsonSoc(y_half, soc0, battery: BatteryModel | BatteryParams, step: float) -> np.ndarray:
     """:func:`SimpsonSocSteps` for a load y sampled every step/2 (2n + 1 samples along axis 0,
     y at t = 0, step/2, step, …) [W]: the SoC [-] at the n + 1 nodes."""
     return SimpsonSocSteps(StepLoads(y_half), soc0, battery, step)
 
 
-def SocDerivativeSlope(power, battery: BatteryParams):
-    """∂ḃ/∂y = −k_b I'(y)/Q_c [1/(W s)] of :func:`~eaplan_drake.energy.battery.SocDerivative`.
-
-    I'(y) = 1/sqrt(V² − 4 R_r y) below :func:`~eaplan_drake.energy.battery.MaxDeliverablePower`; 0
-    at
-    and above it, where the current saturates at V/(2 R_r).
-    """
-    V, R = float(battery.voltage), float(battery.internal_resistance)
-    y = np.asarray(power, dtype=float)
-    below = y < MaxDeliverablePower(V, R)
-    disc = np.where(below, V * V - 4.0 * R * y, 1.0)
-    slope = np.where(below, 1.0 / np.sqrt(disc), 0.0)
-    return -battery.k_b * slope / battery.capacity
-
-
-def SimpsonSocSensitivity(y_steps, battery: BatteryParams, step: float) -> np.ndarray:
+def SimpsonSocSensitivity(
+    y_steps, battery: BatteryModel | BatteryParams, step: float
+) -> np.ndarray:
     """∂(b_{k+1} − b_k)/∂δ_k [1/W] of :func:`SimpsonSocSteps`: each step's SoC change
     differentiated by a load offset δ_k held over that step, shape (n, …)."""
-    slope = np.asarray(SocDerivativeSlope(np.asarray(y_steps, dtype=float), battery))
+    slope = np.asarray(AsBatteryModel(battery).SocRateSlope(np.asarray(y_steps, dtype=float)))
     return step * (slope[0] + 4.0 * slope[1] + slope[2]) / 6.0
 
 
-def TimeToReserve(f_half, dg_steps, soc0: float, battery: BatteryParams, step: float) -> float:
+def TimeToReserve(
+    f_half, dg_steps, soc0: float, battery: BatteryModel | BatteryParams, step: float
+) -> float:
     """t_b [s] (Alg. 2 l. 17–23): time until the SoC reaches ``battery.reserve_soc``, or a
     brown-out, under the load y = f + Δg.
 
@@ -134,6 +129,7 @@ def TimeToReserve(f_half, dg_steps, soc0: float, battery: BatteryParams, step: f
     brown-out sample of the first step that has one; capped at n·step. 0 when soc0 is at or
     below the reserve.
     """
+    battery = AsBatteryModel(battery)
     reserve = float(battery.reserve_soc)
     if soc0 <= reserve:
         return 0.0
@@ -150,7 +146,7 @@ def TimeToReserve(f_half, dg_steps, soc0: float, battery: BatteryParams, step: f
         k = int(below[0])  # soc[k − 1] > reserve ≥ soc[k], k ≥ 1
         frac = (soc[k - 1] - reserve) / (soc[k - 1] - soc[k])
         t_b = (k - 1 + frac) * step
-    brown = IsBrownout(ys, battery.voltage, battery.internal_resistance)
+    brown = battery.IsBrownout(ys)
     steps = np.flatnonzero(np.any(brown, axis=0))
     if steps.size:  # earliest brown-out sample of the first step that has one
         k = int(steps[0])

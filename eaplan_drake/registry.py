@@ -1,0 +1,130 @@
+"""Registries: every choice a scenario names, as one name → factory table each.
+
+A :class:`Registry` feeds both the validation of the scenario key that names the choice
+(:meth:`Registry.Check`, one line listing the allowed names) and the construction
+(:meth:`Registry.Make`). Entries name their factory as ``"module:attribute"`` and are imported
+only when used, so the schema can validate a name without importing the systems (and the command
+line without importing pydrake). This is Drake's ``Union``-typed configs and Gymnasium's
+``register`` in their simplest form.
+
+The tables:
+
+- :data:`POLICIES` (``planner.policy``): factories ``(planner, table, order, battery, *,
+  coverage_time_bounds, path_parameter_grid, integer) → PlannerPolicy``;
+- :data:`AIRCRAFT_MODELS` (``simulation.plant``): ``(vehicle, simulation) → LeafSystem``;
+- :data:`PLAN_SOURCES` (``coverage.plan_file`` set or not): ``(scenario, initial_c1) →
+  PlanSource``;
+- :data:`BATTERY_MODELS` (``battery.model``): ``(battery) → BatteryModel``, the SoC arithmetic
+  that both the battery system and the planner's prediction call.
+
+A new choice is its module plus one line here (or, from Python, :meth:`Registry.Register`).
+"""
+
+import importlib
+from collections.abc import Callable
+
+from eaplan_drake.errors import ScenarioError
+
+__all__ = [
+    "AIRCRAFT_MODELS",
+    "BATTERY_MODELS",
+    "PLAN_SOURCES",
+    "POLICIES",
+    "Registry",
+]
+
+
+class Registry:
+    """Names → factories for the scenario key ``key``; ``entries`` maps each name to a factory or
+    to its ``"module:attribute"`` path. Iterating yields the names in registration order."""
+
+    def __init__(self, key: str, entries: dict[str, str | Callable]):
+        self.key = key
+        self._entries = dict(entries)
+
+    def Names(self) -> tuple[str, ...]:
+        """The registered names, in registration order."""
+        return tuple(self._entries)
+
+    def __iter__(self):
+        return iter(self._entries)
+
+    def __contains__(self, name) -> bool:
+        return name in self._entries
+
+    def Check(self, name, key: str | None = None) -> None:
+        """Raises :class:`~eaplan_drake.errors.ScenarioError` ``key: must be one of …, got …``
+        unless ``name`` is registered."""
+        if not isinstance(name, str) or name not in self._entries:
+            raise ScenarioError(
+                f"{key or self.key}: must be one of {', '.join(self._entries)}, got {name!r}"
+            )
+
+    def Factory(self, name: str) -> Callable:
+        """The factory registered as ``name`` (imported on first use)."""
+        self.Check(name)
+        target = self._entries[name]
+        if isinstance(target, str):
+            module, _, attribute = target.partition(":")
+            target = getattr(importlib.import_module(module), attribute)
+            self._entries[name] = target
+        return target
+
+    def Make(self, name: str, *args, **kwargs):
+        """``Factory(name)(*args, **kwargs)``."""
+        return self.Factory(name)(*args, **kwargs)
+
+    def Register(self, name: str, factory: str | Callable) -> None:
+        """Adds (or replaces) the choice ``name``; a scenario may name it from then on."""
+        if not isinstance(name, str) or not name.isidentifier():
+            raise ValueError(f"{self.key}: a choice's name must be an identifier, got {name!r}")
+        if not (callable(factory) or (isinstance(factory, str) and ":" in factory)):
+            raise ValueError(f"{self.key}: {name}: expected a callable or 'module:attribute'")
+        self._entries[name] = factory
+
+    def Unregister(self, name: str) -> None:
+        """Removes the choice ``name`` (a scenario naming it is then refused)."""
+        self.Check(name)
+        del self._entries[name]
+
+
+POLICIES = Registry(
+    "planner.policy",
+    {
+        "mpc": "eaplan_drake.planning.policies:MakeMpcPolicy",
+        "paper": "eaplan_drake.planning.policies:MakePaperPolicy",
+        "greedy": "eaplan_drake.planning.policies:MakeGreedyPolicy",
+        "greedy_authors": "eaplan_drake.planning.policies:MakeGreedyAuthorsPolicy",
+        "static": "eaplan_drake.planning.policies:MakeStaticPolicy",
+        "hindsight": "eaplan_drake.planning.policies:MakeStaticPolicy",
+    },
+)
+"""``planner.policy``: the planner policies (:mod:`eaplan_drake.planning.policies`);
+``hindsight`` flights are static (:func:`~eaplan_drake.simulation.FlyHindsight` flies several)."""
+
+AIRCRAFT_MODELS = Registry(
+    "simulation.plant",
+    {
+        "continuous": "eaplan_drake.flight.plant:MakeContinuousPlant",
+        "exact_arc": "eaplan_drake.flight.plant:MakeExactArcPlant",
+    },
+)
+"""``simulation.plant``: the aircraft models (:mod:`eaplan_drake.flight.plant`)."""
+
+PLAN_SOURCES = Registry(
+    "coverage.plan_file",
+    {
+        "zamboni": "eaplan_drake.flight.coverage:MakeZamboniPlanSource",
+        "plan_file": "eaplan_drake.flight.planfile:MakePlanFileSource",
+    },
+)
+"""The plan a flight follows: the generated Zamboni-like coverage (``zamboni``, when
+``coverage.plan_file`` is empty) or an authors' ``.pln`` file (``plan_file``)."""
+
+BATTERY_MODELS = Registry(
+    "battery.model",
+    {
+        "rint": "eaplan_drake.energy.battery:RintBatteryModel",
+    },
+)
+"""``battery.model``: the battery models (:mod:`eaplan_drake.energy.battery`)."""
