@@ -98,45 +98,6 @@ class PydrakeSystem(Directive):
         return [container]
 
 
-# TEMPORARY: reST fixes of docstrings in modules whose owners have not fixed them yet. Each entry
-# is (object, text in the docstring, replacement); once the docstring is fixed at its source the
-# text no longer occurs and the entry does nothing (an info line names it): then delete it.
-DOCSTRING_FIXES = [
-    (
-        "eaplan_drake.planning.planner",
-        "greedy_authors, static)\nand\n  :func:",
-        "greedy_authors, static)\n  and :func:",
-    ),
-    (
-        "eaplan_drake.planning.planner",
-        "every policy uses (free\nresponse,\n  the one",
-        "every policy uses (free\n  response, the one",
-    ),
-    (
-        "eaplan_drake.planning.policies",
-        "the mission-feasible MPC of\n:mod:",
-        "the mission-feasible MPC of\n  :mod:",
-    ),
-    ("eaplan_drake.params.VehicleParams", "with |u| ≤", "with \\|u\\| ≤"),
-    ("eaplan_drake.params.EstimatorParams.process_noise", "|ŷ − y|", "\\|ŷ − y\\|"),
-    ("eaplan_drake.resolve.TriggerDistance", "|φ(p)|", "\\|φ(p)\\|"),
-]
-
-
-def FixDocstring(app, what, name, obj, options, lines):
-    """Applies :data:`DOCSTRING_FIXES` to the docstring of ``name`` (autodoc's lines, in place)."""
-    fixes = [(old, new) for target, old, new in DOCSTRING_FIXES if target == name]
-    if not fixes:
-        return
-    text = "\n".join(lines)
-    for old, new in fixes:
-        if old in text:
-            text = text.replace(old, new)
-        else:
-            logger.info(f"conf.py: DOCSTRING_FIXES entry for {name} no longer needed")
-    lines[:] = text.split("\n")
-
-
 GOOGLE_SECTIONS = ("Args:", "Attributes:", "Returns:", "Raises:", "Yields:")
 NAPOLEON = NapoleonConfig(
     napoleon_google_docstring=True, napoleon_numpy_docstring=False, napoleon_use_ivar=True
@@ -183,6 +144,5 @@ def ResolvePublicName(app, env, node, contnode):
 def setup(app):
     app.add_directive("pydrake_system", PydrakeSystem)
     app.connect("missing-reference", ResolvePublicName)
-    app.connect("autodoc-process-docstring", FixDocstring)
     app.connect("autodoc-process-docstring", GoogleSections)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -2,7 +2,7 @@
 
 Every quantity is SI (m, s, W, V, Ω, Ah for capacity as in the papers, rad internally); angles in
 the YAML are degrees only where the key's name ends in ``_deg``. Defaults are the reference
-numbers of the authors' simulator (DESIGN.md section 3, paper 003 Sec. V).
+numbers of the authors' simulator (:ref:`design-reference-scenario`, paper 003 Sec. V).
 
 Load with :func:`LoadScenario` (``filename=`` or ``data=``). A misspelt key, a wrong type or a
 value outside its physical range raises :class:`ScenarioError` whose message names the key.
@@ -187,7 +187,7 @@ class MotionPowerParams:
 
 @dc.dataclass
 class VehicleParams:
-    """Fixed-wing unicycle ṗ = v_a [cos ψ, sin ψ] + w, ψ̇ = u with |u| ≤ g tan(φ_max) / v_a."""
+    """Fixed-wing unicycle ṗ = v_a [cos ψ, sin ψ] + w, ψ̇ = u with \\|u\\| ≤ g tan(φ_max) / v_a."""
 
     airspeed: float = 15.0
     """v_a, constant airspeed [m/s]."""
@@ -441,7 +441,7 @@ class EstimatorParams:
     initial_covariance: float = 100.0
     """P(0) = p0 · I [W²]."""
     process_noise: float = 1e-6
-    """Q = q · I per step [W²]. 1e-6 at 100 Hz keeps |ŷ − y| < 0.3 W on a σ = 0.5 W sensor
+    """Q = q · I per step [W²]. 1e-6 at 100 Hz keeps \\|ŷ − y\\| < 0.3 W on a σ = 0.5 W sensor
     (1e-4 lets ŷ wander by ≈ ±0.3 W) and still follows an unannounced 1 W step of the mean
     to 1/e in ≈ 1.2 s."""
     measurement_noise: float = 0.25

@@ -69,7 +69,7 @@ class ResolvedScenario:
 
 def TriggerDistance(path: PathFunction, point) -> float:
     """Distance [m] from ``point`` to the line or circle of the normalised ``path``:
-    |φ(p)| for a line (φ is the signed distance), | ‖p − o‖ − R | for a circle."""
+    \\|φ(p)\\| for a line (φ is the signed distance), | ‖p − o‖ − R | for a circle."""
     p = np.asarray(point, dtype=float).reshape(2)
     if path.is_circle:
         return float(abs(np.linalg.norm(p - path.center) - path.radius))

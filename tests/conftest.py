@@ -1,5 +1,36 @@
-"""Shared pytest configuration."""
+"""Shared pytest configuration: the Agg backend, and the ``authors_data`` marker.
+
+A test marked ``authors_data`` reads the authors' logs and measurements (``$EAPLAN_REFERENCE_DIR``,
+default ``../shared/reference/seewald2022`` beside the repository). Without them it is skipped
+with that reason, and the run's summary says how many such tests ran and how many were skipped,
+so a clone without the data is never mistaken for a full run.
+"""
 
 import matplotlib
+import pytest
+
+from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
 
 matplotlib.use("Agg")
+
+_AUTHORS_DATA = {"ran": 0, "skipped": 0}
+
+
+def pytest_collection_modifyitems(config, items):
+    present = ReferenceDirectory().is_dir()
+    skip = pytest.mark.skip(
+        reason=f"authors' reference data not found in {ReferenceDirectory()} (set {REFERENCE_ENV})"
+    )
+    for item in items:
+        if item.get_closest_marker("authors_data") is not None:
+            _AUTHORS_DATA["ran" if present else "skipped"] += 1
+            if not present:
+                item.add_marker(skip)
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    if _AUTHORS_DATA["ran"] or _AUTHORS_DATA["skipped"]:
+        terminalreporter.write_line(
+            f"authors' data: {_AUTHORS_DATA['ran']} tests with the data, "
+            f"{_AUTHORS_DATA['skipped']} skipped without it ({ReferenceDirectory()})"
+        )

@@ -21,7 +21,7 @@ from eaplan_drake.energy.battery import (
     SocDerivative,
     TimeToSoc,
 )
-from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
+from eaplan_drake.logfit.powerlog import ReferenceDirectory
 from eaplan_drake.params import BatteryFault, BatteryParams
 
 V, R, Q, KB = 14.8, 0.0012, 3.2, 0.00183
@@ -352,10 +352,7 @@ REFERENCE_DIR = ReferenceDirectory()
 AUTHORS = REFERENCE_DIR / "plan_I" / "bat.csv"
 
 
-@pytest.mark.skipif(
-    not AUTHORS.exists(),
-    reason=f"authors' reference data not found in {REFERENCE_DIR} (set {REFERENCE_ENV})",
-)
+@pytest.mark.authors_data
 def test_authors_plan_I_budget_column_and_absolute_fault_drops():
     # bat.csv: t, b, b·Q_c·V. Their SoC is a scripted piecewise-linear profile (not the Rint
     # model), so only the budget definition and the fault semantics are comparable.

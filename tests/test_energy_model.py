@@ -16,7 +16,7 @@ from eaplan_drake.energy.fourier import (
     FourierMatrices,
     FourierStateFromCoefficients,
 )
-from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
+from eaplan_drake.logfit.powerlog import ReferenceDirectory
 
 REFERENCE = REFERENCE_DIR = ReferenceDirectory()
 
@@ -175,10 +175,7 @@ def test_period_estimate_errors():
         EstimatePeriod(t[:3], t[:3])
 
 
-@pytest.mark.skipif(
-    not REFERENCE.is_dir(),
-    reason=f"authors' reference data not found in {REFERENCE_DIR} (set {REFERENCE_ENV})",
-)
+@pytest.mark.authors_data
 def test_period_estimate_on_authors_plan_I_log():
     data = np.loadtxt(REFERENCE / "plan_I" / "energy_resized.csv", delimiter=",")
     t, y = data[:, 0], data[:, 1]

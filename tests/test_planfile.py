@@ -18,7 +18,7 @@ from eaplan_drake.flight.planfile import (
     QuadraticForm,
     ReadPlanFile,
 )
-from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
+from eaplan_drake.logfit.powerlog import ReferenceDirectory
 from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
 from eaplan_drake.resolve import MakePlanSource
 
@@ -147,10 +147,7 @@ def test_direction_zero_flies_the_first_circle_counter_clockwise():
     assert lines[1].TriggerTangent() == pytest.approx([0.0, 1.0])
 
 
-@pytest.mark.skipif(
-    not DYN_PLAN.is_file(),
-    reason=f"authors' reference data not found in {REFERENCE_DIR} (set {REFERENCE_ENV})",
-)
+@pytest.mark.authors_data
 def test_dynamic_plan_at_c1_zero_equals_the_static_one():
     static = ReadPlanFile(STATIC_PLAN, **KW).Stages(0.0)
     dyn = ReadPlanFile(DYN_PLAN, **KW)

@@ -21,10 +21,10 @@ direction) and e1 = n rotated by −90° (right-handed, so left turns in the loc
 turns in the world). Line k sits at the offset η from the edge: the first line at x_d/2. A line
 runs over the polygon's extent of its swath band [η − x_d/2, η + x_d/2]; the two lines joined by a
 half circle end at the same ξ (the farther of the two extents: the aircraft may overfly the
-boundary), so every turn is tangent to both of its lines. For the reference rectangle of DESIGN.md
-section 3 (edge 0 = the left side x = −120) this gives the first line x = −115 from (−115, 146) to
-(−115, 11), the r1 turn to the line x = 35, and so on, as in the authors' plan file (without
-their 1 m drift of y per repetition).
+boundary), so every turn is tangent to both of its lines. For the reference rectangle
+(:ref:`design-reference-scenario`; edge 0 = the left side x = −120) this gives the first line
+x = −115 from (−115, 146) to (−115, 11), the r1 turn to the line x = 35, and so on, as in the
+authors' plan file (without their 1 m drift of y per repetition).
 
 Re-planning (:meth:`PlanSource.Replan`) keeps every stage up to the current one and regenerates
 the later ones with the new c1: a line or circle being flown never moves. The coverage time

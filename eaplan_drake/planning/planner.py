@@ -7,13 +7,11 @@ c1 grid [s], the parameters applied now) to a :class:`PlannerPolicy` and applies
 
 Where the rest lives:
 
-- :mod:`eaplan_drake.planning.policies`: the policies (mpc, paper, greedy, greedy_authors, static)
-and
-  :func:`~eaplan_drake.planning.policies.MakePolicy`.
+- :mod:`eaplan_drake.planning.policies`: the policies (mpc, paper, greedy, greedy_authors,
+  static) and :func:`~eaplan_drake.planning.policies.MakePolicy`.
 - :mod:`eaplan_drake.planning.prediction`: the pure prediction helpers every policy uses (free
-response,
-  the one Simpson SoC rollout on the Rint battery, time to reserve, the Eq. 10 line and path
-  rule, the smooth table surrogate).
+  response, the one Simpson SoC rollout on the battery model, time to reserve, the Eq. 10 line
+  and path rule, the smooth table surrogate).
 - :mod:`eaplan_drake.planning.paper`: the paper's NLP (Eq. 16) and step (:class:`Planner`).
 - :mod:`eaplan_drake.planning.mpc`: the mission-feasible MPC (the default policy).
 

@@ -1,13 +1,15 @@
-"""Planner policies: the seam between the :class:`~eaplan_drake.planning.planner.PlannerScheduler`
-and
-whatever decides c1 [m²] and c2 [table units] every h_T [s].
+"""Planner policies: what decides c1 [m²] and c2 [table units] every h_T [s].
 
-``planner.policy`` in the scenario selects one (:func:`MakePolicy`); a Python user may pass any
+Each policy is the seam between the :class:`~eaplan_drake.planning.planner.PlannerScheduler` and
+a decision rule.
+
+``planner.policy`` in the scenario selects one (:func:`MakePolicy`, by the table
+:data:`~eaplan_drake.registry.POLICIES`); a Python user may pass any
 :class:`~eaplan_drake.planning.planner.PlannerPolicy` to
 :func:`~eaplan_drake.diagram.MakeEaplanDiagram` instead. All share the scheduler's ports.
 
 - ``mpc`` (:class:`MpcPolicy`, default): the mission-feasible MPC of
-:mod:`eaplan_drake.planning.mpc`.
+  :mod:`eaplan_drake.planning.mpc`.
 - ``paper`` (:class:`PaperPolicy`): paper 003 Eq. 16 + Alg. 2 as published
   (:class:`~eaplan_drake.planning.paper.Planner`: Def. III.3 output constraint, Eq. 10 line,
   rate-limited path rule); the four reference flights use it.
