@@ -11,17 +11,19 @@ subprocess, so peaks don't mix). Speeds are per CPU second of the flight's proce
 FLIGHT: ``plan_I``, ``plan_II``, ``plan_i``, ``plan_ii``, ``plan_I_full`` (plan I with a battery
 ten times larger and no reserve, so the whole c1 = 0 survey, ≈ 767 simulated seconds, is flown).
 With ``--runs N`` every figure is the median of N runs (flights and reference loop interleaved).
-``--baseline-tree DIR`` also flies each flight with the package found in DIR (e.g. a checkout of
-an older commit, ``git worktree add /tmp/old <commit>``) and prints the speed-up of this tree over
+``--baseline-tree DIR`` also flies each flight with the package found in DIR (another checkout,
+e.g. ``git worktree add /tmp/baseline <revision>``) and prints the speed-up of this tree over
 it, measured in the same run: as the ratio of the two trees' median speeds and as the median of
 the per-run ratios (in each run a flight is flown by both trees back to back, so a drift of the
 machine's load between runs cancels in the run's ratio). ``--set`` overrides a scenario key of
 this tree's flights (as ``simulate --set``), e.g. ``--set simulation.plant=continuous``;
-``--rates fast`` flies them at the studies' rate preset (:mod:`eaplan_drake.rates`, README
-"Rates"; issue 14's target 2).
+``--rates fast`` flies them at the studies' rate preset (:mod:`eaplan_drake.rates`, the docs'
+rates page, docs/rates.rst).
 
-Targets (issue 14): dynamic flights (plan_i, plan_ii) at least 3× the speed of commit 9f6bcff in
-the same run, planner ≤ 20 % of a dynamic flight, peak memory ≤ 150 MB per flight.
+Prints the reference loop's speed, then one row per flight and tree: status, simulated and CPU
+seconds, × real time, the ratio to the reference loop, the planner's share (and its number of
+solves) and the peak memory; with a baseline tree, the two speed-ups. The figures measured with
+it are in the docs' benchmarks page (docs/benchmarks.rst).
 """
 
 import argparse

@@ -14,15 +14,16 @@ Each FLIGHT (a shipped scenario name, default ``plan_i plan_ii``) is built with
 it) and advanced to t0 and, in a second process, to t1 (``--window t0 t1`` [s], default 10 40):
 the difference of the two counts, divided by the base ticks in between ((t1 − t0) /
 ``simulation.max_step``), is the loop's cost per step without the start-up (imports, table and
-plan loading). ``--baseline-tree DIR`` counts the package found in DIR too (e.g. a checkout of
-9f6bcff, issue 14's "today") and prints the ratio. Needs ``valgrind`` on the PATH (Debian package
-``valgrind``); without it the script says so and exits with status 2. A window of 30 s costs about
-a minute per flight and tree (callgrind runs ≈ 50× slower than the flight).
+plan loading). ``--baseline-tree DIR`` counts the package found in DIR too (another checkout,
+e.g. ``git worktree add /tmp/baseline <revision>``) and prints the ratio. Needs ``valgrind`` on
+the PATH (Debian package ``valgrind``); without it the script says so and exits with status 2. A
+window of 30 s costs about a minute per flight and tree (callgrind runs ≈ 50× slower than the
+flight).
 
 The count is a proxy, not the speed: cache misses and branch mispredictions are not counted, and
-they differ between trees (on plan i, 10–40 s, this tree against 9f6bcff: 2.74× fewer
-instructions, 3.06× less CPU time in the same bench_flights run). Use it to compare changes of one
-tree on a busy machine; the speed-up that counts is ``bench_flights.py``'s.
+they differ between trees (on plan i, 10–40 s, one tree against an older one: 2.74× fewer
+instructions but 3.06× less CPU time in the same bench_flights run). Use it to compare changes of
+one tree on a busy machine; the speed-up that counts is ``bench_flights.py``'s.
 """
 
 import argparse

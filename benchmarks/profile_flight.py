@@ -1,5 +1,5 @@
 """Profiles one reference flight with cProfile and prints the top functions by own time, with
-their share of the flight's profiled time (issue 14: where a flight's time goes).
+their share of the flight's profiled time: where a flight's time goes.
 
     python3 benchmarks/profile_flight.py [FLIGHT] [--top 10] [--set KEY=VALUE ...]
 
