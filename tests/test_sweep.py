@@ -13,7 +13,7 @@ import time
 import distributed
 import pytest
 
-from eaplan_drake.params import ScenarioError
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.studies.sweep import (
     FlyRow,
     LoadStudy,
@@ -164,3 +164,106 @@ def test_wilson_interval():
     assert lo == pytest.approx(0.7225, abs=1e-4) and hi == 1.0
     lo, hi = WilsonInterval(50, 100)
     assert lo == pytest.approx(0.4038, abs=1e-4) and hi == pytest.approx(0.5962, abs=1e-4)
+
+
+MINI = textwrap.dedent(
+    """\
+    name: mini
+    base: plan_i
+    set: {simulation.time_limit: 5.0, planner.warmup: 2.0}
+    draws: 1
+    seed: 3
+    policies: [mpc, greedy]
+    """
+)
+
+
+def test_a_torn_last_line_is_set_aside_and_its_flight_flown_again(tmp_path):
+    """A kill mid-write leaves the last row cut, without its newline: the next run moves the
+    fragment to rows.jsonl.torn (never gluing a row onto it), flies that flight again, and the
+    report counts every flight once."""
+    path = tmp_path / "mini.yaml"
+    path.write_text(MINI)
+    st, d = LoadStudy(path)
+    out = tmp_path / "o"
+    reference = RunStudy(st, out, directory=d, progress=False)
+    rows = out / "rows.jsonl"
+    lines = rows.read_text().splitlines()
+    assert len(lines) == 3
+    fragment = lines[2][: len(lines[2]) // 2]
+    rows.write_text("\n".join(lines[:2]) + "\n" + fragment)
+    again = RunStudy(st, out, directory=d, progress=False)
+    assert _Stable(again) == _Stable(reference)
+    assert (out / "rows.jsonl.torn").read_text() == fragment + "\n"
+    fixed = rows.read_text().splitlines()
+    assert len(fixed) == 3 and [json.loads(x)["id"] for x in fixed] == [r["id"] for r in again]
+    assert fixed[:2] == lines[:2]
+    text = StudyReport(out).read_text()
+    assert text.startswith("# Study report: 3 flights\n")
+    assert "| mpc | 1 |" in text and "| lowest | 1 |" in text and "| greedy | 1 |" in text
+
+
+def test_rows_glued_onto_a_cut_line_are_kept_once(tmp_path):
+    """rows.jsonl from before the fix: a cut line with the next row glued after it, and the same
+    flight twice. Reading keeps the glued row and one row per flight id (the last)."""
+    from eaplan_drake.studies.sweep import _ReadRows, _RepairRows
+
+    a = {"world": 0, "policy": "lowest", "id": "a", "error": None, "note": "{x}"}
+    b = {"world": 0, "policy": "mpc", "id": "b", "error": None}
+    b2 = dict(b, note="again")
+    cut = json.dumps(a)[:30]
+    path = tmp_path / "rows.jsonl"
+    path.write_text(f"{json.dumps(a)}\n{cut}{json.dumps(b)}\n{json.dumps(b2)}\n{cut}")
+    assert _ReadRows(path) == [a, b2]
+    _RepairRows(path)
+    assert path.read_text() == f"{json.dumps(a)}\n{json.dumps(b)}\n{json.dumps(b2)}\n"
+    assert (tmp_path / "rows.jsonl.torn").read_text() == f"{cut}\n{cut}\n"
+
+
+def _SessionProcesses(session: int) -> list[int]:
+    """Live processes of a session (Linux /proc)."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            stat = open(f"/proc/{entry}/stat").read()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2 :].split()
+        if int(fields[3]) == session and fields[0] not in ("Z", "X"):
+            found.append(int(entry))
+    return found
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux /proc")
+def test_killing_a_two_job_sweep_leaves_no_worker_running(tmp_path):
+    """SIGKILL of `sweep --jobs 2` while its loky workers fly: within 10 s no process of the
+    sweep's session is left (the workers notice their parent is gone)."""
+    path = tmp_path / "long.yaml"
+    path.write_text(MINI.replace("5.0", "400.0").replace("draws: 1", "draws: 3"))
+    command = [sys.executable, "-m", "eaplan_drake", "sweep", str(path), "--out"]
+    proc = subprocess.Popen(
+        [*command, str(tmp_path / "o"), "--jobs", "2"],
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.monotonic() + 120.0
+        while len(_SessionProcesses(proc.pid)) < 4 and time.monotonic() < deadline:
+            time.sleep(0.1)  # the sweep, two workers and a resource tracker at least
+        time.sleep(2.0)  # the workers take their first flights
+        assert len(_SessionProcesses(proc.pid)) >= 4
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=10.0)
+        deadline = time.monotonic() + 10.0
+        while _SessionProcesses(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert _SessionProcesses(proc.pid) == []
+    finally:
+        for pid in _SessionProcesses(proc.pid):
+            os.kill(pid, signal.SIGKILL)
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

@@ -12,19 +12,28 @@ compared on the same random worlds), so the same study file gives the same fligh
 machine, in any order and with any number of workers.
 
 :func:`RunStudy` flies them with joblib (``loky`` by default: worker processes are reused, so
-pydrake is imported once per worker; BLAS threads capped at one) or, with ``backend="dask"``, on a
-Dask cluster through joblib's Dask backend (``scheduler`` = the address of a
-``distributed.Scheduler``, or a running ``distributed.Client``). A worker builds its own diagram
+pydrake is imported once per worker; BLAS threads capped at one; a worker whose parent process is
+gone, killed even, stops within a second) or, with ``backend="dask"``, on a Dask cluster through
+its own futures (:mod:`eaplan_drake.studies.cluster`; ``scheduler`` = the address of a
+``distributed.Scheduler``, or a running ``distributed.Client``): the flights run on the cluster's
+workers, whatever their number of threads, and a flight the cluster cannot fly (its worker died
+more often than the scheduler allows) is an error row saying why. A worker builds its own diagram
 from the scenario (scenarios pickle; diagrams do not). Each flight returns one small row
-(:func:`FlyRow`); one flight's exception becomes its error row. Rows are appended to
-``rows.jsonl`` in the output directory as they finish, one line each, flushed and fsynced; a
-re-run of the same study on the same directory skips the flights already there (keyed by a hash
-of the resolved scenario), so a study killed at any moment resumes and loses at most the flights
-in flight. :func:`StudyReport` writes ``report.md`` and figures from the rows.
+(:func:`FlyRow`); one flight's exception becomes its error row. Rows are the same, bit for bit (but
+for ``wall_time``), on either backend and with any number of workers. Rows are appended to
+``rows.jsonl`` in the output directory as they finish, one line each, flushed and fsynced; a re-run
+of the same study on the same directory skips the flights already there (keyed by a hash of the
+resolved scenario), so a study killed at any moment resumes and loses at most the flights in
+flight. A line cut by a kill (the last one, without its newline) is moved to ``rows.jsonl.torn``
+before anything is appended, and its flight is flown again; when every flight has its row,
+``rows.jsonl`` is rewritten in flight order (so it, and the report, do not depend on the order in
+which flights finished). :func:`StudyReport` writes ``report.md`` and figures from the rows.
 
 On a cluster: start a scheduler and workers with this package installed (e.g. with
 ``dask-jobqueue``'s ``SLURMCluster(...)`` or ``PBSCluster(...)``, ``cluster.scale(jobs=n)``) and
 pass ``--backend dask --scheduler tcp://host:8786`` (or the ``Client`` in Python).
+``--wait-for-workers`` bounds the wait for the scheduler and for a connected worker
+(:class:`~eaplan_drake.studies.cluster.ClusterError` after it).
 """
 
 import dataclasses as dc
@@ -33,16 +42,23 @@ import itertools
 import json
 import math
 import os
+import sys
+import threading
 import time
 from pathlib import Path
 
 import numpy as np
 
+from eaplan_drake.errors import ScenarioError
+from eaplan_drake.files import JsonSafe
 from eaplan_drake.loading import LayerScenario, OverrideFromAssignment
-from eaplan_drake.params import BatteryFault, Scenario, ScenarioError
+from eaplan_drake.params import BatteryFault, Scenario
 from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
+from eaplan_drake.studies.cluster import WAIT_FOR_WORKERS, ClusterError, MapOnDask, Wait
 
 __all__ = [
+    "CheckJobs",
+    "ClusterError",
     "FaultDistribution",
     "FlyRow",
     "LoadStudy",
@@ -54,6 +70,10 @@ __all__ = [
 ]
 
 ROWS_FILE = "rows.jsonl"
+TORN_FILE = "rows.jsonl.torn"
+"""Where lines of ``rows.jsonl`` that are not whole rows (cut by a kill) are set aside."""
+MAX_JOBS = 1024
+"""Largest ``n_jobs`` (loky worker processes)."""
 KEEP_RATES = "scenario"
 """``Study.rates`` value that keeps the base scenario's own rates."""
 LOWEST = "lowest"
@@ -252,16 +272,132 @@ def FlyRow(keys: dict, scenario: Scenario, save_logs: str = "") -> dict:
     return row
 
 
+def _RowOf(line: bytes) -> dict | None:
+    """The row of one line of ``rows.jsonl``, or None when it is not a whole row."""
+    try:
+        row = json.loads(line)
+    except ValueError:  # also UnicodeDecodeError: a cut line
+        return None
+    return row if isinstance(row, dict) and isinstance(row.get("id"), str) else None
+
+
+def _SplitRows(data: bytes) -> tuple[list[tuple[bytes, dict]], list[bytes]]:
+    """(whole rows as (line, row), the other lines) of the bytes of ``rows.jsonl``.
+
+    A kill while a row is written leaves a cut last line without its newline. Files written
+    before the cut line was set aside may hold one with a whole row glued after it (the next
+    row was appended to it): that row is kept (the longest suffix of the line that is a whole
+    row), the cut part is not.
+    """
+    rows, other = [], []
+    for line in data.split(b"\n"):
+        if not line.strip():
+            continue
+        row = _RowOf(line)
+        if row is not None:
+            rows.append((line, row))
+            continue
+        start = line.find(b"{", 1)
+        while start > 0 and (row := _RowOf(line[start:])) is None:
+            start = line.find(b"{", start + 1)
+        if row is None:
+            other.append(line)
+        else:
+            rows.append((line[start:], row))
+            other.append(line[:start])
+    return rows, other
+
+
 def _ReadRows(path: Path) -> list[dict]:
-    rows = []
-    if path.is_file():
-        with path.open() as f:
-            for line in f:
-                try:
-                    rows.append(json.loads(line))
-                except json.JSONDecodeError:  # a line cut by a kill: that flight is re-flown
-                    continue
-    return rows
+    """The whole rows of ``path`` (none if it does not exist), one per flight id (the last)."""
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return []
+    latest = {row["id"]: row for _, row in _SplitRows(data)[0]}
+    return list(latest.values())
+
+
+def _RepairRows(path: Path) -> None:
+    """Before rows are appended: moves the lines of ``path`` that are not whole rows (a line cut
+    by a kill) to :data:`TORN_FILE` beside it (appended) and rewrites ``path`` with its whole
+    rows, each ending in a newline, so that no row is ever glued onto a cut line."""
+    from eaplan_drake.files import AtomicWrite
+
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return
+    rows, other = _SplitRows(data)
+    if not other and (not data or data.endswith(b"\n")):
+        return
+    if other:
+        with (path.parent / TORN_FILE).open("ab") as f:
+            f.write(b"".join(line + b"\n" for line in other))
+            f.flush()
+            os.fsync(f.fileno())
+    AtomicWrite(path, lambda f: f.write(b"".join(line + b"\n" for line, _ in rows)), binary=True)
+
+
+def _SortRows(path: Path, ids: list[str]) -> None:
+    """Rewrites ``path`` with one row per flight, in flight order (``ids``), then any rows of
+    other flights in file order; only when that changes it."""
+    from eaplan_drake.files import AtomicWrite
+
+    data = path.read_bytes()
+    rows, other = _SplitRows(data)
+    if other:  # not expected after _RepairRows; leave the file as it is
+        return
+    latest = {row["id"]: line for line, row in rows}
+    known = [i for i in dict.fromkeys(ids) if i in latest]
+    order = known + [i for i in latest if i not in set(known)]
+    text = b"".join(latest[i] + b"\n" for i in order)
+    if text != data:
+        AtomicWrite(path, lambda f: f.write(text), binary=True)
+
+
+_WATCHED_PARENT = None
+
+
+def _WatchParent(parent: int) -> None:
+    """In a worker process (not ``parent`` itself): a daemon thread that ends the process within
+    a quarter second once its parent ``parent`` is gone (it is then re-parented), so that a
+    killed study leaves no worker flying. Started once per process."""
+    global _WATCHED_PARENT
+    if os.getpid() == parent or _WATCHED_PARENT == parent:
+        return
+    _WATCHED_PARENT = parent
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(0.25)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="eaplan-watch-parent", daemon=True).start()
+
+
+def _FlyInWorker(keys: dict, scenario: Scenario, save_logs: str, parent: int) -> dict:
+    """:func:`FlyRow` in a loky worker process, watching its parent (:func:`_WatchParent`)."""
+    _WatchParent(parent)
+    return FlyRow(keys, scenario, save_logs)
+
+
+def _FailedRow(keys: dict, scenario: Scenario, why: str) -> dict:
+    """The error row of a flight the cluster could not fly (``why``: one line)."""
+    row = dict(keys, id=ScenarioHash(scenario), error=why)
+    row.update(status="error", completed=False, wall_time=None)
+    return row
+
+
+def CheckJobs(n_jobs, name: str = "n_jobs") -> int:
+    """``n_jobs`` if it is an integer in [1, :data:`MAX_JOBS`] or -1 (one per core); else
+    ValueError naming ``name`` and the range."""
+    ok = isinstance(n_jobs, int) and not isinstance(n_jobs, bool)
+    if not (ok and (1 <= n_jobs <= MAX_JOBS or n_jobs == -1)):
+        raise ValueError(
+            f"{name}: must be an integer in [1, {MAX_JOBS}] or -1 (one per core), got {n_jobs!r}"
+        )
+    return n_jobs
 
 
 def RunStudy(
@@ -269,31 +405,48 @@ def RunStudy(
     out: str | Path,
     *,
     directory: str | Path = ".",
-    n_jobs: int = 1,
+    n_jobs: int | None = None,
     backend: str = "loky",
     scheduler=None,
     save_logs: bool = False,
     progress: bool = True,
+    wait_for_workers: float = WAIT_FOR_WORKERS,
 ) -> list[dict]:
     """Flies every flight of ``study`` not yet in ``out``/rows.jsonl and returns all rows (in
-    flight order). See the module docstring for backends and resuming."""
-    import joblib
+    flight order). See the module docstring for backends and resuming.
 
+    Args:
+        n_jobs: loky worker processes (default 1: in this process; -1: one per core); not
+            used with ``backend="dask"``, where the workers and their threads set how many
+            flights fly at once (ValueError if given).
+        backend: ``loky`` or ``dask``.
+        scheduler: with ``dask``, a scheduler address (``tcp://host:8786``) or a
+            ``distributed.Client``.
+        progress: a progress bar and the waiting lines on stderr.
+        wait_for_workers: [s] with ``dask``: how long to wait for the scheduler to answer and,
+            at the start or later, for a worker to be connected;
+            :class:`~eaplan_drake.studies.cluster.ClusterError` after it.
+    """
+    if backend not in ("loky", "dask"):
+        raise ScenarioError(f"backend: must be loky or dask, got {backend!r}")
+    if backend == "dask":
+        if n_jobs is not None:
+            raise ValueError(
+                "n_jobs: not used with backend dask (the cluster's workers and their threads "
+                "set how many flights fly at once)"
+            )
+        wait = Wait(wait_for_workers)
+    else:
+        n_jobs = CheckJobs(1 if n_jobs is None else n_jobs)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rows_path = out / ROWS_FILE
     flights = StudyFlights(study, directory)
     ids = [ScenarioHash(s) for _, s in flights]
+    _RepairRows(rows_path)
     done = {r["id"]: r for r in _ReadRows(rows_path)}
     todo = [(k, s) for (k, s), i in zip(flights, ids, strict=True) if i not in done]
     logs = str(out / "logs") if save_logs else ""
-    client = None
-    if backend == "dask":
-        from distributed import Client
-
-        client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
-    elif backend != "loky":
-        raise ScenarioError(f"backend: must be loky or dask, got {backend!r}")
     bar = None
     if progress:
         try:
@@ -302,32 +455,52 @@ def RunStudy(
             bar = tqdm(total=len(flights), initial=len(flights) - len(todo), unit="flight")
         except ImportError:
             bar = None
-    try:
-        config = {"inner_max_num_threads": 1} if backend == "loky" else {}
-        with joblib.parallel_config(backend=backend, n_jobs=n_jobs, **config):
-            results = joblib.Parallel(return_as="generator_unordered")(
-                joblib.delayed(FlyRow)(k, s, logs) for k, s in todo
-            )
-            with rows_path.open("a") as f:
-                for row in results:
-                    f.write(json.dumps(row, allow_nan=False, default=_Json) + "\n")
-                    f.flush()
-                    os.fsync(f.fileno())
-                    done[row["id"]] = row
-                    if bar is not None:
-                        bar.update(1)
-    finally:
+
+    def say(text: str) -> None:
         if bar is not None:
-            bar.close()
-        if client is not None and client is not scheduler:
-            client.close()
+            bar.write(text, file=sys.stderr)
+        elif progress:
+            print(text, file=sys.stderr, flush=True)
+
+    with rows_path.open("a") as f:
+
+        def write(row: dict) -> None:
+            row = JsonSafe(row)
+            f.write(json.dumps(row, allow_nan=False) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+            done[row["id"]] = row
+            if bar is not None:
+                bar.update(1)
+
+        try:
+            if todo and backend == "dask":
+                MapOnDask(
+                    scheduler,
+                    FlyRow,
+                    [(k, s, logs) for k, s in todo],
+                    names=[f"w{k['world']}-{k['policy']}" for k, _ in todo],
+                    on_result=lambda i, row: write(row),
+                    on_failure=lambda i, why: write(_FailedRow(*todo[i], why)),
+                    wait=wait,
+                    say=say,
+                )
+            elif todo:
+                import joblib
+
+                parent = os.getpid()
+                with joblib.parallel_config(backend="loky", n_jobs=n_jobs, inner_max_num_threads=1):
+                    results = joblib.Parallel(return_as="generator_unordered")(
+                        joblib.delayed(_FlyInWorker)(k, s, logs, parent) for k, s in todo
+                    )
+                    for row in results:
+                        write(row)
+        finally:
+            if bar is not None:
+                bar.close()
+    if all(i in done for i in ids):
+        _SortRows(rows_path, ids)
     return [done[i] for i in ids if i in done]
-
-
-def _Json(v):
-    if isinstance(v, np.generic):
-        return v.item()
-    raise TypeError(f"not JSON: {v!r}")
 
 
 def WilsonInterval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
