@@ -128,7 +128,14 @@ def test_dask_local_cluster_runs_the_study(study, tmp_path):
     st.grid = {"wind.speed": [3.0]}
     st.draws = 1
     with (
-        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True) as cluster,
+        distributed.LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            scheduler_kwargs={"dashboard": False},
+        ) as cluster,
         distributed.Client(cluster) as client,
     ):
         rows = RunStudy(
