@@ -39,13 +39,16 @@ HERE = Path(__file__).resolve().parent
 
 CHILD = """
 import json, resource, sys, time
-from eaplan_drake.params import OverrideFromAssignment
-from eaplan_drake.simulation import LoadNamedScenario, Simulate
+try:
+    from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
+except ImportError:  # a baseline tree from before the package layout
+    from eaplan_drake.params import LayerScenario, OverrideFromAssignment
+    from eaplan_drake.simulation import LoadNamedScenario
+from eaplan_drake.simulation import Simulate
 name = sys.argv[1]
 rates = [a.removeprefix("rates=") for a in sys.argv[2:] if a.startswith("rates=")]
 overrides = [OverrideFromAssignment(a) for a in sys.argv[2:] if not a.startswith("rates=")]
 if rates:  # a rate preset (eaplan_drake.rates), applied before the --set overrides
-    from eaplan_drake.params import LayerScenario
     from eaplan_drake.rates import WithRates
     scenario = WithRates(LoadNamedScenario(name.removesuffix("_full")), rates[0])
     scenario = LayerScenario(scenario, overrides)
@@ -74,7 +77,11 @@ REFERENCE_CHILD = """
 import json, sys
 sys.path.insert(0, sys.argv[2])
 from reference_loop import FlyReferenceLoop
-from eaplan_drake.simulation import LoadNamedScenario
+try:
+    from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
+except ImportError:  # a baseline tree from before the package layout
+    from eaplan_drake.params import LayerScenario, OverrideFromAssignment
+    from eaplan_drake.simulation import LoadNamedScenario
 r = FlyReferenceLoop(LoadNamedScenario(sys.argv[1]))
 print(json.dumps({"status": r["status"], "simulated_s": r["duration"], "cpu_s": r["cpu_s"]}))
 """

@@ -313,7 +313,7 @@ def main(argv=None) -> int:
 
     for p in policies:
         if p not in POLICIES or p == "hindsight":
-            ap.error(f"--policies: {p!r} is not one of {', '.join(POLICIES[:-1])}")
+            ap.error(f"--policies: {p!r} is not one of {', '.join(POLICIES.Names()[:-1])}")
     t0 = time.perf_counter()
     base = WithRates(Scenario(name="bench"), args.rates)
     for item in args.planner:

@@ -93,8 +93,9 @@ alone make (every lower sensor rate draws other samples)."""
 CHILD = """
 import json, sys, time
 import numpy as np
+from eaplan_drake.loading import LoadNamedScenario
 from eaplan_drake.rates import RateSetting, WithRates
-from eaplan_drake.simulation import LoadNamedScenario, Simulate
+from eaplan_drake.simulation import Simulate
 name, rates, seed, out = sys.argv[1:5]
 if name.startswith("world"):
     from eaplan_drake.params import Scenario

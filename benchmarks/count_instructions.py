@@ -41,7 +41,11 @@ CHILD = """
 import sys
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from eaplan_drake.diagram import MakeEaplanDiagram
-from eaplan_drake.simulation import LoadNamedScenario
+try:
+    from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
+except ImportError:  # a baseline tree from before the package layout
+    from eaplan_drake.params import LayerScenario, OverrideFromAssignment
+    from eaplan_drake.simulation import LoadNamedScenario
 scenario = LoadNamedScenario(sys.argv[1])
 simulator = Simulator(MakeEaplanDiagram(scenario))
 ResetIntegratorFromFlags(
