@@ -1,0 +1,503 @@
+"""Risk of battery faults for the planner: a fault model, the tail of the total SoC drop, the excess
+risk of a plan over the lowest plan, and the statistics that certify a risk level.
+
+Plain functions over numpy, deterministic. Units: time [s], rates [1/s], SoC fractions [-].
+
+**Fault model.** Drops arrive as a Poisson process N(t) of rate λ [1/s]; their sizes X_1, X_2, ...
+[-] are i.i.d. (:class:`UniformDrops`, :class:`ExponentialDrops`, :class:`EmpiricalDrops`) and
+independent of the arrivals. Over an exposure τ [s] the total drop is compound Poisson::
+
+    S(τ) = X_1 + ... + X_N(τ),      P(S(τ) > m) = Σ_n e^(-λτ) (λτ)^n / n! · Q_n(m),
+    Q_n(m) = P(X_1 + ... + X_n > m),   Q_0(m) = [m < 0].
+
+:func:`TotalDropTail` stops the sum where a Chernoff bound puts the Poisson tail below 1e-12, so it
+is exact to 1e-12 (from below). Q_n is the Irwin–Hall CDF for uniform sizes (in a Bernstein form
+that never cancels), the Erlang survival for exponential ones, an exact n-fold convolution for a
+list.
+
+**Excess risk.** A candidate plan p has remaining mission time τ_p [s] and margin m_p [-] (predicted
+end SoC with no further fault, minus the reserve); the lowest plan 0 from the same state has τ_0,
+m_0. Assumptions:
+
+- A1: a plan spends time and SoC uniformly along the rest of the survey (progress u in [0, 1]).
+- A2: the mission fails when the drops exceed the margin (SoC never rises, so the end is the lowest
+  point; ending exactly at the reserve completes).
+- A3: fallback: at the first drop the planner switches to the lowest plan for the rest.
+- A4: both flights see the same world (drop times from now, and sizes).
+
+With the first drop at t = u·τ_p, plan p has spent u of its SoC and flies the remaining 1 − u of the
+survey as the lowest plan would, for τ_0 (1 − u) seconds::
+
+    M(u) = u·m_p + (1 − u)·m_0                      margin left at the first drop
+    F_p  = {T_1 <= τ_p, X_1 + S(T_1, T_1 + τ_0 (1 − u)] > M(u)}  or  {T_1 > τ_p, m_p < 0}
+    F_0  = {S(0, τ_0] > m_0}
+    R(p) = P(F_p and not F_0)                       the excess risk
+
+R(p) is the probability that the mission fails although the lowest plan from the same state would
+have completed. The first drop is the split point: before it the flight is the deterministic plan p;
+T_1 ~ Exp(λ) is a stopping time, so later arrivals are again Poisson and independent of (T_1, X_1);
+and later drops change no decision, the rest being the lowest plan already. So, with Λ = λτ::
+
+    P(F_p) = e^(-Λ_p) [m_p < 0]
+           + ∫_0^1 Λ_p e^(-Λ_p u) Σ_n Pois(n; Λ_0 (1 − u)) Q_(n+1)(M(u)) du.
+
+If τ_0 <= τ_p and m_p <= m_0, then F_0 is inside F_p: with a drop at t <= τ_0, p's window ends at
+t + τ_0 (1 − t/τ_p) >= τ_0, so p suffers every drop the lowest plan does, against M(u) <= m_0; with
+none by τ_0, F_0 means m_0 < 0, and then m_p < 0 and M(u) < 0 fail p too. Hence, exactly::
+
+    R(p) = P(F_p) − P(S(τ_0) > m_0).
+
+A plan that only spends more SoC per second (same path, τ_p = τ_0, more computation) is exposed as
+long; its excess comes from the margin u (m_0 − m_p) already spent when the first drop comes. A
+plan that also flies longer meets its first drop sooner (Λ_p > Λ_0 per unit of progress) and is
+exposed after τ_0, up to t + τ_0 (1 − u). Out of that order (a candidate better than the lowest in
+time or margin) :func:`ExcessRiskBounds` falls back to the bound min(P(F_p), 1 − P(F_0)).
+
+Evaluation: M(u) is linear, so every Q_(n+1)(M(u)) is monotone on a cell of u and bounded by its
+values at the edges. The cells are the union of ``cells`` equal steps in u and ``cells`` equal steps
+in first-drop probability; the smooth weights (density of T_1 times the Poisson weights of the
+later drops) are integrated by 8-point Gauss–Legendre to rounding error (checked against
+:func:`TotalDropTail`). This brackets P(F_p) between a lower and an upper sum at most
+(1 − e^(-Λ_p)) / cells · Σ_n (Q_(n+1)(m_p) − Q_(n+1)(m_0)) apart; :func:`ExcessRisk` returns the
+upper one (conservative to the 1e-12 of the truncations).
+
+Recursive feasibility: for the lowest plan F_p = F_0, so its excess risk is 0 (returned exactly),
+and the constraint R(p) <= ε admits it from every state, after every drop. Its own risk P(F_0) is
+the world's, not an excess, and is reported apart. ε bounds one decision given the state; the rate
+over whole missions is what Monte Carlo over worlds certifies (:func:`ClopperPearsonUpper`,
+:func:`WorldsNeeded`). In a thin world (m_0 small against the drops) the lowest plan survives by
+little, and a plan that spends more loses those worlds: its excess risk is large.
+"""
+
+import dataclasses as dc
+import math
+
+import numpy as np
+
+__all__ = [
+    "ClopperPearsonUpper",
+    "EmpiricalDrops",
+    "ExcessRisk",
+    "ExcessRiskBounds",
+    "ExponentialDrops",
+    "FaultModel",
+    "MarginAtRisk",
+    "TotalDropTail",
+    "UniformDrops",
+    "WorldsNeeded",
+]
+
+MAX_EXPECTED_DROPS = 100.0
+"""Largest λτ (expected drops in one exposure) accepted: a planner's exposure holds a few, and the
+exact uniform sums cost O(n³) in the largest count n (a fraction of a second at λτ = 100)."""
+
+POISSON_TAIL = 1e-12
+"""Poisson mass beyond the last count summed (the tails are exact to this, from below)."""
+
+MAX_SUPPORT = 200_000
+"""Largest number of distinct values of an n-fold sum of :class:`EmpiricalDrops`."""
+
+_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(8)
+
+
+def _CheckScalar(
+    name: str, value, low: float, high: float, what: str, *, open_low=False, open_high=False
+) -> float:
+    """``value`` as a float in the interval, or a one-line ValueError naming ``name``."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be a number, got {value!r}") from None
+    inside = (x > low if open_low else x >= low) and (x < high if open_high else x <= high)
+    if not (math.isfinite(x) and inside):
+        interval = f"{'(' if open_low else '['}{low:g}, {high:g}{')' if open_high else ']'}"
+        raise ValueError(f"{name}: must be finite and in {interval} {what}, got {value!r}")
+    return x
+
+
+def _CheckProbability(name: str, value) -> float:
+    return _CheckScalar(name, value, 0.0, 1.0, "(probability)", open_low=True, open_high=True)
+
+
+def _CheckArray(name: str, value, *, nonnegative: bool, what: str) -> np.ndarray:
+    """``value`` as a float array, finite (and >= 0), or a ValueError naming the first bad entry."""
+    x = np.asarray(value, dtype=float)
+    bad = ~np.isfinite(x) | ((x < 0.0) if nonnegative else False)
+    if np.any(bad):
+        first = x[bad].ravel()[0]
+        rule = "finite and >= 0" if nonnegative else "finite"
+        raise ValueError(f"{name}: must be {rule} {what}, got {first}")
+    return x
+
+
+def _Out(x: np.ndarray):
+    """A float for a 0-d result, else the array."""
+    return float(x) if np.ndim(x) == 0 else x
+
+
+def _LogFactorials(n_max: int) -> np.ndarray:
+    return np.array([math.lgamma(k + 1.0) for k in range(n_max + 1)])
+
+
+def _PoissonPmf(mean: np.ndarray, n_max: int) -> np.ndarray:
+    """e^(-Λ) Λ^n / n! for n = 0..n_max, shape mean.shape + (n_max + 1,), computed in log space."""
+    mean = np.asarray(mean, dtype=float)[..., None]
+    k = np.arange(n_max + 1)
+    log_mean = np.log(np.where(mean > 0.0, mean, 1.0))
+    pmf = np.exp(k * log_mean - mean - _LogFactorials(n_max))
+    return np.where(mean > 0.0, pmf, (k == 0).astype(float))
+
+
+def _PoissonCutoff(mean: float) -> int:
+    """Smallest n_max with P(N > n_max) < POISSON_TAIL for N ~ Poisson(mean), by the Chernoff bound
+    P(N >= k) <= e^(-Λ) (eΛ/k)^k (k > Λ)."""
+    if mean <= 0.0:
+        return 0
+    k = np.arange(1, int(mean + 20.0 * math.sqrt(mean) + 60.0))
+    log_bound = -mean + k * (1.0 + math.log(mean) - np.log(k))
+    return int(k[(k > mean) & (log_bound < math.log(POISSON_TAIL))][0]) - 1
+
+
+def _CheckExpected(name: str, expected: np.ndarray) -> None:
+    if np.any(expected > MAX_EXPECTED_DROPS):
+        raise ValueError(
+            f"{name}: rate·{name} must be <= {MAX_EXPECTED_DROPS:g} expected drops, "
+            f"got {float(np.max(expected)):g}"
+        )
+
+
+def _IrwinHallCdf(count: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """P(U_1 + ... + U_n <= x) for U_i ~ U[0, 1], flat arrays of counts n >= 1 and x in [0, n].
+
+    The alternating sum (1/n!) Σ_k (-1)^k C(n, k) (x - k)^n cancels catastrophically for large n
+    (at n = 100, x = 50 no digit is left), so this uses a stable form instead: on each piece
+    [k, k + 1] the CDF F_n is a polynomial of degree n in t = x - k, written in the Bernstein basis
+    B_(i,n)(t) = C(n, i) t^i (1 - t)^(n-i). From F_n(x) = ∫_(x-1)^x F_(n-1)(y) dy and the integrals
+    of the Bernstein basis, its coefficients are averages of the previous level's::
+
+        c(n)[k, i] = (Σ_(l >= i) c(n-1)[k-1, l] + Σ_(l < i) c(n-1)[k, l]) / n,
+
+    with c(n-1)[-1, ·] = 0 and c(n-1)[n-1, ·] = 1 outside [0, n-1], so every coefficient is in
+    [0, 1] and F_n(x) = Σ_i c(n)[k, i] B_(i,n)(t) is a convex combination: no cancellation.
+    Cost O(n²) per level, O(n) per point.
+    """
+    out = np.zeros(x.shape)
+    coeffs = np.ones((0, 1))
+    for n in range(1, int(count.max(initial=0)) + 1):
+        padded = np.concatenate([np.zeros((1, n)), coeffs, np.ones((1, n))])
+        suffix = np.concatenate(
+            [np.cumsum(padded[:, ::-1], axis=1)[:, ::-1], np.zeros((n + 1, 1))], 1
+        )
+        prefix = np.concatenate([np.zeros((n + 1, 1)), np.cumsum(padded, axis=1)], axis=1)
+        coeffs = (suffix[:-1] + prefix[1:]) / n
+        rows = np.flatnonzero(count == n)
+        if rows.size == 0:
+            continue
+        piece = np.minimum(np.floor(x[rows]), n - 1).astype(int)
+        t = (x[rows] - piece)[:, None]
+        i = np.arange(n + 1)
+        log_fact = _LogFactorials(n)
+        log_comb = log_fact[-1] - log_fact - log_fact[::-1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_basis = log_comb + i * np.log(t) + (n - i) * np.log1p(-t)
+        basis = np.where(t == 0.0, i == 0, np.where(t == 1.0, i == n, np.exp(log_basis)))
+        out[rows] = np.sum(coeffs[piece] * basis, axis=1)
+    return out
+
+
+@dc.dataclass(frozen=True)
+class UniformDrops:
+    """Drop sizes X ~ U[a, b] [-], 0 <= a < b <= 1 (a fixed size is ``EmpiricalDrops([a])``)."""
+
+    a: float
+    b: float
+
+    def __post_init__(self):
+        a = _CheckScalar("UniformDrops.a", self.a, 0.0, 1.0, "(SoC fraction)", open_high=True)
+        b = _CheckScalar("UniformDrops.b", self.b, 0.0, 1.0, "(SoC fraction)", open_low=True)
+        if not a < b:
+            raise ValueError(f"UniformDrops.a: must be < b = {b:g}, got {a:g}")
+        object.__setattr__(self, "a", a)
+        object.__setattr__(self, "b", b)
+
+    @property
+    def upper(self) -> float:
+        """The largest size [-]."""
+        return self.b
+
+    def sum_tail(self, n_max: int, margin) -> np.ndarray:
+        """Q_n(m) = P(X_1 + ... + X_n > m) for n = 0..n_max, shape margin.shape + (n_max + 1,):
+        the sum is n·a + (b − a)·H_n, H_n Irwin–Hall, and P(H_n > x) = F_n(n − x) by symmetry."""
+        m = np.asarray(margin, dtype=float)[..., None]
+        n = np.arange(n_max + 1)
+        x = (m - n * self.a) / (self.b - self.a)
+        inside = (n >= 1) & (x > 0.0) & (x < n)
+        count = np.broadcast_to(n, x.shape)[inside]
+        x_in = x[inside]
+        q = np.where(x <= 0.0, 1.0, 0.0)
+        q[..., 0] = (m[..., 0] < 0.0).astype(float)
+        q[inside] = _IrwinHallCdf(count, count - x_in)
+        return q
+
+
+@dc.dataclass(frozen=True)
+class ExponentialDrops:
+    """Drop sizes X ~ Exp with mean μ [-], 0 < μ < 1 (sizes above 1 empty the battery)."""
+
+    mean: float
+
+    def __post_init__(self):
+        soc = "(SoC fraction)"
+        mean = _CheckScalar(
+            "ExponentialDrops.mean", self.mean, 0, 1, soc, open_low=True, open_high=True
+        )
+        object.__setattr__(self, "mean", mean)
+
+    @property
+    def upper(self) -> float:
+        """The largest size [-] (unbounded)."""
+        return math.inf
+
+    def sum_tail(self, n_max: int, margin) -> np.ndarray:
+        """Q_n(m) for n = 0..n_max: the Erlang survival P(Poisson(m/μ) <= n − 1), a sum of positive
+        terms (m >= 0), shape margin.shape + (n_max + 1,)."""
+        m = np.asarray(margin, dtype=float)
+        pmf = _PoissonPmf(np.maximum(m, 0.0) / self.mean, max(n_max - 1, 0))[..., :n_max]
+        survival = np.concatenate([np.zeros(m.shape + (1,)), np.cumsum(pmf, axis=-1)], axis=-1)
+        return np.where(m[..., None] < 0.0, 1.0, survival)
+
+
+@dc.dataclass(frozen=True)
+class EmpiricalDrops:
+    """Drop sizes drawn from a list of observed sizes [-], each in (0, 1], equal weights."""
+
+    values: tuple[float, ...]
+
+    def __post_init__(self):
+        values = tuple(
+            _CheckScalar(
+                f"EmpiricalDrops.values[{i}]", v, 0.0, 1.0, "(SoC fraction)", open_low=True
+            )
+            for i, v in enumerate(np.atleast_1d(np.asarray(self.values, dtype=object)))
+        )
+        if not values:
+            raise ValueError("EmpiricalDrops.values: must hold at least one size, got none")
+        object.__setattr__(self, "values", values)
+
+    @property
+    def upper(self) -> float:
+        """The largest size [-]."""
+        return max(self.values)
+
+    def sum_tail(self, n_max: int, margin) -> np.ndarray:
+        """Q_n(m) for n = 0..n_max from the exact distribution of the n-fold sum (convolution over
+        the distinct values; sums are rounded to 1e-12 to merge equal ones; at most MAX_SUPPORT)."""
+        m = np.asarray(margin, dtype=float)
+        values, counts = np.unique(np.asarray(self.values), return_counts=True)
+        weights = counts / counts.sum()
+        support, probs = np.zeros(1), np.ones(1)
+        q = np.empty(m.shape + (n_max + 1,))
+        for n in range(n_max + 1):
+            if n > 0:
+                sums = np.round((support[:, None] + values).ravel(), 12)
+                support, inverse = np.unique(sums, return_inverse=True)
+                probs = np.bincount(inverse, weights=(probs[:, None] * weights).ravel())
+                if support.size > MAX_SUPPORT:
+                    raise ValueError(
+                        f"EmpiricalDrops.values: the {n}-fold sum has more than {MAX_SUPPORT} "
+                        "distinct values; round the sizes (e.g. to 0.001)"
+                    )
+            above = np.concatenate([np.cumsum(probs[::-1])[::-1], [0.0]])
+            q[..., n] = above[np.searchsorted(support, m, side="right")]
+        return q
+
+
+_SIZE_KINDS = (UniformDrops, ExponentialDrops, EmpiricalDrops)
+
+
+@dc.dataclass(frozen=True)
+class FaultModel:
+    """Battery faults: drops as a Poisson process of ``rate`` λ >= 0 [1/s] with i.i.d. ``sizes``."""
+
+    rate: float
+    sizes: UniformDrops | ExponentialDrops | EmpiricalDrops
+
+    def __post_init__(self):
+        rate = _CheckScalar("FaultModel.rate", self.rate, 0.0, math.inf, "[1/s]", open_high=True)
+        object.__setattr__(self, "rate", rate)
+        if not isinstance(self.sizes, _SIZE_KINDS):
+            raise ValueError(
+                "FaultModel.sizes: must be UniformDrops, ExponentialDrops or EmpiricalDrops, "
+                f"got {type(self.sizes).__name__}"
+            )
+
+
+def TotalDropTail(model: FaultModel, exposure, margin):
+    """P(S(τ) > m): the probability that the drops during ``exposure`` τ [s] total more than
+    ``margin`` m [-]. Broadcasts τ and m; exact to POISSON_TAIL (1e-12, from below); 1 for m < 0,
+    0 for τ = 0 and m >= 0. ValueError if λτ > MAX_EXPECTED_DROPS."""
+    tau = _CheckArray("exposure", exposure, nonnegative=True, what="[s]")
+    m = _CheckArray("margin", margin, nonnegative=False, what="(SoC fraction)")
+    tau, m = np.broadcast_arrays(tau, m)
+    expected = model.rate * tau
+    _CheckExpected("exposure", expected)
+    n_max = _PoissonCutoff(float(np.max(expected, initial=0.0)))
+    tail = np.sum(_PoissonPmf(expected, n_max) * model.sizes.sum_tail(n_max, m), axis=-1)
+    return _Out(np.where(m < 0.0, 1.0, np.clip(tail, 0.0, 1.0)))
+
+
+def MarginAtRisk(model: FaultModel, exposure, eps: float, *, tolerance: float = 1e-10):
+    """The smallest margin m [-] with P(S(τ) > m) <= ``eps`` over ``exposure`` τ [s] (broadcasts τ).
+
+    Deterministic bisection of each entry on [0, hi] (hi: the largest possible total for bounded
+    sizes, else doubled from 1) to a bracket of width <= ``tolerance``; returns the bracket's upper
+    end, so the tail there is <= eps and the true minimum is at most ``tolerance`` below. 0 when
+    even m = 0 meets eps. eps must be in [1e-9, 1) (above the tails' truncation)."""
+    eps = _CheckScalar("eps", eps, 1e-9, 1.0, "(probability)", open_high=True)
+    tolerance = _CheckScalar("tolerance", tolerance, 1e-14, 1.0, "(SoC fraction)")
+    tau = _CheckArray("exposure", exposure, nonnegative=True, what="[s]")
+    _CheckExpected("exposure", model.rate * tau)
+    top = model.sizes.upper
+    n_max = np.vectorize(_PoissonCutoff, otypes=[float])(model.rate * tau)
+    hi = n_max * top if math.isfinite(top) else np.ones(tau.shape)
+    for _ in range(64):
+        short = np.asarray(TotalDropTail(model, tau, hi)) > eps
+        if not np.any(short):
+            break
+        hi = np.where(short, 2.0 * hi, hi)
+    lo = np.zeros(tau.shape)
+    for _ in range(200):
+        wide = hi - lo > tolerance
+        if not np.any(wide):
+            break
+        mid = 0.5 * (lo + hi)
+        above = np.asarray(TotalDropTail(model, tau, mid)) > eps
+        lo, hi = np.where(wide & above, mid, lo), np.where(wide & ~above, mid, hi)
+    return _Out(np.where(np.asarray(TotalDropTail(model, tau, 0.0)) <= eps, 0.0, hi))
+
+
+def _FallbackFailureBounds(model, expected_p, m_p, expected_0, m_0, cells):
+    """Lower and upper sums of P(F_p) (module docstring) over flat arrays of candidates."""
+    s = np.linspace(0.0, 1.0, cells + 1)
+    reach = -np.expm1(-expected_p)[:, None]
+    rate_p = np.where(expected_p > 0.0, expected_p, 1.0)[:, None]
+    with np.errstate(divide="ignore"):
+        u_prob = np.where(reach > 0.0, -np.log1p(-reach * s) / rate_p, s)
+    u_prob = np.minimum(u_prob, 1.0)
+    u_prob[:, -1] = 1.0
+    edges = np.sort(np.concatenate([np.broadcast_to(s, u_prob.shape), u_prob], axis=1), axis=1)
+    half = 0.5 * (edges[:, 1:] - edges[:, :-1])[..., None]
+    u = 0.5 * (edges[:, 1:] + edges[:, :-1])[..., None] + half * _GAUSS_NODES
+    first = (
+        half * _GAUSS_WEIGHTS * expected_p[:, None, None] * np.exp(-expected_p[:, None, None] * u)
+    )
+    n_max = _PoissonCutoff(float(np.max(expected_0, initial=0.0)))
+    later = _PoissonPmf(expected_0[:, None, None] * (1.0 - u), n_max)
+    weight = np.einsum("pcq,pcqn->pcn", first, later)
+    left = m_0[:, None] - (m_0 - m_p)[:, None] * edges
+    q = model.sizes.sum_tail(n_max + 1, left)[..., 1:]
+    q_low = np.minimum(q[:, :-1], q[:, 1:])
+    q_high = np.maximum(q[:, :-1], q[:, 1:])
+    none = np.exp(-expected_p) * (m_p < 0.0)
+    return none + np.einsum("pcn,pcn->p", weight, q_low), none + np.einsum(
+        "pcn,pcn->p", weight, q_high
+    )
+
+
+def ExcessRiskBounds(
+    model: FaultModel, plan_time, plan_margin, lowest_time, lowest_margin, *, cells: int = 64
+):
+    """(lower, upper) bounds of the excess risk R(p) of candidate plans (module docstring).
+
+    ``plan_time`` τ_p and ``lowest_time`` τ_0 [s] are remaining mission times, ``plan_margin`` m_p
+    and ``lowest_margin`` m_0 [-] fault-free end SoC minus reserve; all broadcast (one entry per
+    candidate). Both bounds are 0 for the lowest plan itself; their gap shrinks as 1/``cells``."""
+    cells = _CheckCount("cells", cells, 1, 4096)
+    args = [
+        _CheckArray("plan_time", plan_time, nonnegative=True, what="[s]"),
+        _CheckArray("plan_margin", plan_margin, nonnegative=False, what="(SoC fraction)"),
+        _CheckArray("lowest_time", lowest_time, nonnegative=True, what="[s]"),
+        _CheckArray("lowest_margin", lowest_margin, nonnegative=False, what="(SoC fraction)"),
+    ]
+    shape = np.broadcast_shapes(*(a.shape for a in args))
+    tau_p, m_p, tau_0, m_0 = (np.broadcast_to(a, shape).ravel() for a in args)
+    _CheckExpected("plan_time", model.rate * tau_p)
+    _CheckExpected("lowest_time", model.rate * tau_0)
+    low_p, high_p = np.empty(tau_p.size), np.empty(tau_p.size)
+    n_max = _PoissonCutoff(float(np.max(model.rate * tau_0, initial=0.0)))
+    chunk = max(1, 4_000_000 // ((2 * cells + 1) * _GAUSS_NODES.size * (n_max + 2)))
+    for j in range(0, tau_p.size, chunk):
+        part = slice(j, j + chunk)
+        low_p[part], high_p[part] = _FallbackFailureBounds(
+            model, model.rate * tau_p[part], m_p[part], model.rate * tau_0[part], m_0[part], cells
+        )
+    fail_0 = np.asarray(TotalDropTail(model, tau_0, m_0))
+    ordered = (tau_p >= tau_0) & (m_p <= m_0)
+    upper = np.where(ordered, high_p - fail_0, np.minimum(high_p, 1.0 - fail_0))
+    lowest = (tau_p == tau_0) & (m_p == m_0)
+    upper = np.where(lowest, 0.0, np.clip(upper, 0.0, 1.0))
+    lower = np.where(lowest, 0.0, np.clip(low_p - fail_0, 0.0, upper))
+    return _Out(lower.reshape(shape)), _Out(upper.reshape(shape))
+
+
+def ExcessRisk(
+    model: FaultModel, plan_time, plan_margin, lowest_time, lowest_margin, *, cells: int = 64
+):
+    """R(p) [-]: the probability that the mission fails although the lowest plan from the same state
+    would have completed, under the fallback to the lowest plan at the first drop: the upper bound
+    of :func:`ExcessRiskBounds` (conservative; exactly 0 for the lowest plan). Broadcasts."""
+    _, upper = ExcessRiskBounds(
+        model, plan_time, plan_margin, lowest_time, lowest_margin, cells=cells
+    )
+    return upper
+
+
+def _CheckCount(name: str, value, low: int, high: float) -> int:
+    """``value`` as an int in [low, high], or a one-line ValueError naming ``name``."""
+    x = _CheckScalar(name, value, low, high, "(an integer)")
+    if x != math.floor(x):
+        raise ValueError(f"{name}: must be an integer, got {value!r}")
+    return int(x)
+
+
+def ClopperPearsonUpper(failures: int, trials: int, confidence: float = 0.95) -> float:
+    """Exact one-sided upper confidence bound p_U of a failure probability from ``failures`` k of
+    ``trials`` n: the p with P(Binomial(n, p) <= k) = 1 − ``confidence``.
+
+    1 for k = n; 1 − (1 − confidence)^(1/n) for k = 0; otherwise bisection (to the last bit,
+    deterministic; the upper end is returned) on the binomial CDF summed in log space."""
+    n = _CheckCount("trials", trials, 1, math.inf)
+    k = _CheckCount("failures", failures, 0, n)
+    alpha = 1.0 - _CheckProbability("confidence", confidence)
+    if k == n:
+        return 1.0
+    if k == 0:
+        return float(-np.expm1(math.log(alpha) / n))
+    i = np.arange(k + 1)
+    log_comb = math.lgamma(n + 1.0) - np.array(
+        [math.lgamma(j + 1.0) + math.lgamma(n - j + 1.0) for j in range(k + 1)]
+    )
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        p = 0.5 * (lo + hi)
+        if not lo < p < hi:
+            break
+        terms = log_comb + i * math.log(p) + (n - i) * math.log1p(-p)
+        top = float(terms.max())
+        log_cdf = top + math.log(float(np.sum(np.exp(terms - top))))
+        lo, hi = (p, hi) if log_cdf > math.log(alpha) else (lo, p)
+    return hi
+
+
+def WorldsNeeded(eps: float, confidence: float = 0.95) -> int:
+    """The fewest failure-free trials n with ClopperPearsonUpper(0, n, confidence) <= ``eps``:
+    ⌈ln(1 − confidence) / ln(1 − eps)⌉, checked against the bound itself (299 for eps = 0.01,
+    59 for eps = 0.05, at 95 %)."""
+    eps = _CheckProbability("eps", eps)
+    conf = _CheckProbability("confidence", confidence)
+    n = max(1, math.ceil(math.log(1.0 - conf) / math.log1p(-eps)))
+    while ClopperPearsonUpper(0, n, conf) > eps:
+        n += 1
+    while n > 1 and ClopperPearsonUpper(0, n - 1, conf) <= eps:
+        n -= 1
+    return n
