@@ -82,13 +82,27 @@ def _Simulate(args) -> int:
     from eaplan_drake.simulation import Simulate
 
     overrides = [OverrideFromAssignment(a) for a in args.set]
-    if args.rates:  # the preset first, then --set (as a study's rates and set)
-        from eaplan_drake.loading import LayerScenario
+    if args.rates or args.with_files:  # the preset, then the --with files, then --set
+        from eaplan_drake.files import ReadTextFile
+        from eaplan_drake.loading import MAX_SCENARIO_BYTES, LayerScenario
         from eaplan_drake.rates import WithRates
 
-        scenario = LayerScenario(WithRates(LoadNamedScenario(args.scenario), args.rates), overrides)
-        if args.rates != "paper":
-            scenario.name = f"{scenario.name}_{args.rates}"
+        scenario = LoadNamedScenario(args.scenario)
+        scenario = WithRates(scenario, args.rates) if args.rates else scenario
+        for path in args.with_files:  # a scenario fragment (fit's fit.yaml), validated
+            try:
+                text = ReadTextFile(Path(path), MAX_SCENARIO_BYTES, ScenarioError)
+                scenario = LayerScenario(scenario, [text])
+            except ScenarioError as e:
+                line = _OneLine(e)  # LayerScenario's "override 1" is this file
+                line = path + line[10:] if line.startswith("override 1") else line
+                where = "" if line.startswith(path) else f"{path}: "
+                raise ScenarioError(f"--with {where}{line}") from None
+        scenario = LayerScenario(scenario, overrides)
+        suffixes = ([args.rates] if args.rates not in ("", "paper") else []) + [
+            Path(path).stem for path in args.with_files
+        ]
+        scenario.name = "_".join([scenario.name, *suffixes])
     else:
         scenario = LoadNamedScenario(args.scenario, overrides)
     if args.policy:
@@ -226,7 +240,14 @@ def _StudyReport(args) -> int:
 
 def _Fit(args) -> int:
     from eaplan_drake.files import AtomicWrite
-    from eaplan_drake.logfit.fit import NOISE_CRITERIA_TEXT, FitPowerLog, FormatScores, PlotLogFit
+    from eaplan_drake.logfit.fit import (
+        FRAGMENT_ORDERS,
+        NOISE_CRITERIA_TEXT,
+        SCENARIO_MAX_ORDER,
+        FitPowerLog,
+        FormatScores,
+        PlotLogFit,
+    )
     from eaplan_drake.logfit.powerlog import PowerLogError, ReadPeriodLog, ReadPowerLog
 
     if args.period is not None and args.period_log:
@@ -245,15 +266,22 @@ def _Fit(args) -> int:
             time_scale=args.time_scale,
             time_step=args.time_step,
         )
-        orders = [int(v) for v in args.orders.split(",")] if args.orders else None
-        kwargs = {} if orders is None else {"orders": orders}
+        orders = FRAGMENT_ORDERS
+        if args.orders:
+            cells = [v.strip() for v in args.orders.split(",")]
+            if not all(v.isdigit() and int(v) <= SCENARIO_MAX_ORDER for v in cells):
+                raise ValueError(
+                    f"--orders: comma-separated integers in [0, {SCENARIO_MAX_ORDER}] (the "
+                    f"largest energy_model.order of a scenario), got {args.orders!r}"
+                )
+            orders = [int(v) for v in cells]
         result = FitPowerLog(
             log.times,
             log.power,
             args.period,
+            orders=orders,
             aperiodic=not args.no_aperiodic,
             period_log=period_log,
-            **kwargs,
         )
     except (PowerLogError, ValueError) as e:
         print(f"eaplan-drake fit: {e}", file=sys.stderr)
@@ -321,6 +349,15 @@ def main(argv=None) -> int:
         default="",
         help="fly at a rate preset (fast = 20 Hz plant, 10 Hz averaging sensor and filter, the "
         "studies' default; paper = 100 Hz), before --set (name gets a suffix)",
+    )
+    p.add_argument(
+        "--with",
+        dest="with_files",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="layer a scenario fragment (YAML, e.g. fit's fit.yaml) over the scenario, validated "
+        "like the file; after --rates, before --set; repeatable (name gets the file's stem)",
     )
     p.set_defaults(run=_Simulate)
     p = sub.add_parser("diagram", help="write DOT and SVG of the closed loop and its systems")
@@ -405,7 +442,12 @@ def main(argv=None) -> int:
     p.add_argument("--current-column", default=None, help="name or index (power = V × I)")
     p.add_argument("--time-scale", type=float, default=None, help="seconds per time unit")
     p.add_argument("--time-step", type=float, default=None, help="[s], logs without time")
-    p.add_argument("--orders", default="", help="candidate Fourier orders, e.g. 0,1,2,3")
+    p.add_argument(
+        "--orders",
+        default="",
+        help="candidate Fourier orders, e.g. 0,1,2,3 (default 0,1,2,3,4,6,8,12,16; at most 20, "
+        "as a scenario's energy_model.order)",
+    )
     p.add_argument("--no-aperiodic", action="store_true", help="the paper's model (no AR(1))")
     p.set_defaults(run=_Fit)
     p = sub.add_parser("study-report", help="the report of a study directory")

@@ -11,7 +11,7 @@ import pytest
 from eaplan_drake.cli import main
 from eaplan_drake.energy.estimator import KalmanPredict, KalmanUpdate
 from eaplan_drake.energy.fourier import AugmentedOrder, DiscreteEnergyMatrices, OutputMatrix
-from eaplan_drake.loading import LoadScenario
+from eaplan_drake.loading import LayerScenario, LoadNamedScenario, LoadScenario, ShippedNames
 from eaplan_drake.logfit.fit import (
     HORIZONS_SUFFIX,
     NOISE_CRITERIA,
@@ -226,7 +226,7 @@ def test_uniform_series_and_its_errors():
         UniformPowerSeries(np.r_[np.arange(20.0), 5.0], np.arange(21.0))
     with pytest.raises(ValueError, match="at least 16"):
         UniformPowerSeries(np.arange(5.0), np.arange(5.0))
-    with pytest.raises(ValueError, match="two periods"):
+    with pytest.raises(ValueError, match=r"hold 0\.88 periods of 40 s, less than the one"):
         FitPowerModel(np.zeros(50), 1.0, 40.0)
 
 
@@ -323,7 +323,9 @@ def test_cli_fit_bad_file_is_one_line(tmp_path, capsys):
 def test_opterra_throttle_log_reads_and_has_the_track_period():
     from eaplan_drake.energy.fourier import EstimatePeriodWithConfidence
 
-    log = ReadPowerLog(ReferenceDirectory() / "opterra_flight" / "pprz_throttle.csv")
+    log = ReadPowerLog(
+        ReferenceDirectory() / "opterra_flight" / "pprz_throttle.csv", time_column=0, power_column=2
+    )
     assert log.times[-1] == pytest.approx(319.5)
     found = EstimatePeriodWithConfidence(log.times, log.power)
     assert found.period == pytest.approx(49.5, rel=0.03)  # the track repeats every ≈ 49.5 s
@@ -552,3 +554,145 @@ def test_cli_fit_result_does_not_depend_on_blas_threads(tmp_path):
         assert done.returncode == 0, done.stderr
         fragments.append((out / "fit.yaml").read_text())
     assert fragments[0] == fragments[1]
+
+
+def test_a_log_without_header_needs_its_columns_named(tmp_path, capsys):
+    """Several columns and no header: nothing says which is power (it used to be the last column),
+    so they must be named; one column is the Paparazzi energy log and needs nothing."""
+    f = tmp_path / "log.csv"
+    f.write_text("".join(f"{0.5 * i},{30 + i % 7},{i % 3}\n" for i in range(40)))
+    with pytest.raises(PowerLogError) as e:
+        ReadPowerLog(f)
+    assert str(e.value) == (
+        f"{f}: no header and 3 columns: name them by 0-based index: --time-column (or "
+        "--time-step) and --power-column (or --voltage-column and --current-column)"
+    )
+    with pytest.raises(PowerLogError, match=r"name them by 0-based index: --power-column \(or"):
+        ReadPowerLog(f, time_column=0)
+    log = ReadPowerLog(f, time_column=0, power_column=1)
+    assert log.power[8] == 31.0 and log.times[8] == 4.0
+    assert log.source == "log.csv (no header): time = column 0 (× 1 s), power = column 1"
+    assert ReadPowerLog(f, time_step=0.25, power_column=2).times[4] == 1.0
+    assert main(["fit", str(f), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"eaplan-drake fit: {f}: no header and 3 columns")
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_log_too_short_for_its_period_is_one_line(tmp_path, capsys):
+    """400 s at 0.5 s: 2.9 periods of 46 s are needed (the first half fits with a period in its
+    first 70 %, the second scores up to T ahead), so T = 150 s is refused up front, saying so."""
+    from eaplan_drake.logfit.fit import MinimumSamples
+
+    assert MinimumSamples(0.5, 46.0) == 264  # int(0.7 · 132) = 92 = P; 264 − 92 > 132
+    t, z = _synthetic(4, duration=400.0)
+    log = tmp_path / "flight.csv"
+    _WriteLog(log, t, z)
+    assert main(["fit", str(log), "--period", "150", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "eaplan-drake fit: power log: 800 samples at 0.5 s (400 s) cover 2.67 periods of "
+        "T = 150 s (given); fit needs 858 samples (2.86 periods: it fits on the first half and "
+        "scores up to T ahead on the second); record longer or check the period"
+    ]
+    assert not (tmp_path / "o").exists()
+    with pytest.raises(ValueError, match=r"periods of T = 46 s \(period log\); fit needs 264"):
+        FitPowerLog(t[:200], z[:200], orders=(1,), period_log=([0.0], [46.0]))
+
+
+SHIPPED_FITS = {
+    "seewald2022_plan_I_energy.csv": (["--time-column", "0", "--power-column", "1"], 45.83),
+    "opterra_pprz_energy.csv": (["--period", "49.5"], 49.5),
+    "px4_battery_status_example.csv": ([], 29.98),
+}
+"""The command that fits each shipped power log (README "Energy estimator on real power logs")
+and the period it prints [s]."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(SHIPPED_FITS))
+def test_every_shipped_power_log_fits_with_its_documented_command(name, tmp_path, capsys):
+    args, period = SHIPPED_FITS[name]
+    with resources.as_file(DATA / name) as path:
+        assert main(["fit", str(path), *args, "--out", str(tmp_path / "o")]) == 0
+    text = capsys.readouterr().out
+    assert f"period          {period:.2f} s" in text
+    rows = {line[:16].strip(): line[16:].split() for line in text.splitlines()}
+    model, last = float(rows["model"][0]), float(rows["last value"][0])
+    assert model <= 1.1 * last, text  # 1 step ahead: within 10 % of last value or better
+    fragment = (tmp_path / "o" / "fit.yaml").read_text()
+    for scenario in ShippedNames("scenarios"):  # the fragment layers over every scenario
+        s = LayerScenario(LoadNamedScenario(scenario), [fragment])
+        assert s.energy_model == LoadScenario(data=fragment).energy_model
+
+
+def test_fit_orders_stay_within_what_a_scenario_accepts(tmp_path, capsys):
+    """fit.yaml must load: `fit` tries orders up to energy_model.order's largest (20), refuses
+    --orders above it, and ScenarioFragment refuses such an order."""
+    from eaplan_drake.errors import ScenarioError
+    from eaplan_drake.logfit.fit import FRAGMENT_ORDERS, ORDERS, SCENARIO_MAX_ORDER
+
+    assert LoadScenario(data=f"energy_model: {{order: {SCENARIO_MAX_ORDER}}}")
+    with pytest.raises(ScenarioError, match="energy_model.order"):
+        LoadScenario(data=f"energy_model: {{order: {SCENARIO_MAX_ORDER + 1}}}")
+    assert FRAGMENT_ORDERS == tuple(r for r in ORDERS if r <= SCENARIO_MAX_ORDER)
+    noise = NoiseParameters(0.01, 1e-6)
+    with pytest.raises(ValueError, match="order r = 24 is above energy_model.order's largest"):
+        PowerModelFit(24, 40.0, 0.5, noise, 0.0, 24.0, []).ScenarioFragment()
+    t, z = _synthetic(4, duration=400.0)
+    log = tmp_path / "flight.csv"
+    _WriteLog(log, t, z)
+    for orders in ("2,24", "x", "-1"):
+        assert main(["fit", str(log), "--orders", orders, "--out", str(tmp_path / "o")]) == 2
+        assert capsys.readouterr().err.strip().splitlines() == [
+            "eaplan-drake fit: --orders: comma-separated integers in [0, 20] (the largest "
+            f"energy_model.order of a scenario), got {orders!r}"
+        ]
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_simulate_layers_a_fitted_fragment_over_any_scenario(tmp_path, capsys):
+    """`simulate SCENARIO --with fit.yaml` flies the scenario with the fitted energy model (its
+    order, hence the estimator's state size) and sensor; repeatable, after --rates, before --set;
+    the name gets each file's stem."""
+    from eaplan_drake.energy.fourier import AugmentedOrder, StateSize
+
+    t, z = _synthetic(4, duration=400.0)
+    log, fit = tmp_path / "flight.csv", tmp_path / "fit"
+    _WriteLog(log, t, z)
+    assert main(["fit", str(log), "--period", "46", "--orders", "2", "--out", str(fit)]) == 0
+    fragment = LoadScenario(filename=fit / "fit.yaml")
+    tau = fragment.estimator.aperiodic_time_constant
+    order = fragment.energy_model.order
+    states = StateSize(AugmentedOrder(order, tau) if tau > 0.0 else order)
+    noise = tmp_path / "noise.yaml"
+    noise.write_text("sensor: {noise_std: 0.25}\n")
+    for scenario in ("plan_i", "plan_II"):
+        args = ["simulate", scenario, "--rates", "fast", "--with", str(fit / "fit.yaml")]
+        args += ["--with", str(noise), "--set", "simulation.time_limit=3", "--out", str(tmp_path)]
+        assert main(args) == 0, capsys.readouterr().err
+        out = tmp_path / f"{scenario}_fast_fit_noise"
+        assert np.load(out / "log.npz")["energy_coefficients"].shape[1] == states
+    capsys.readouterr()
+
+
+def test_simulate_with_a_bad_fragment_is_one_line_naming_it(tmp_path, capsys):
+    cases = {
+        "estimator:\n  fooo: 1\n": "estimator.fooo: unknown key (known keys here: ",
+        "estimator:\n  process_noise: [1\n": "invalid YAML: ",
+        "battery:\n  capacity: -3\n": "battery.capacity: must be > 0, got -3",
+    }
+    bad = tmp_path / "bad.yaml"
+    for text, message in cases.items():
+        bad.write_text(text)
+        assert main(["simulate", "plan_i", "--with", str(bad), "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(f"eaplan-drake: scenario error: --with {bad}")
+        assert message in err[0], err
+    missing = str(tmp_path / "none.yaml")
+    assert main(["simulate", "plan_i", "--with", missing, "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"eaplan-drake: scenario error: --with {missing}: cannot read: No such file or directory"
+    ]
+    assert not (tmp_path / "o").exists()

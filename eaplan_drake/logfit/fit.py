@@ -77,11 +77,14 @@ from eaplan_drake.rates import RescaledProcessNoise
 __all__ = [
     "BASELINES",
     "BaselinePrediction",
+    "CheckLogLength",
     "FilterPowerSeries",
     "FitNoise",
     "FitPowerLog",
     "FitPowerModel",
     "FormatScores",
+    "FRAGMENT_ORDERS",
+    "HELD_OUT_SPLIT",
     "LogFit",
     "PlotLogFit",
     "HORIZONS_SUFFIX",
@@ -90,6 +93,7 @@ __all__ = [
     "FitLevelNoise",
     "LEVEL_RATIOS",
     "LikelihoodScaledNoise",
+    "MinimumSamples",
     "NOISE_CRITERIA",
     "NOISE_CRITERIA_TEXT",
     "ModelName",
@@ -100,6 +104,7 @@ __all__ = [
     "NoiseParameters",
     "PowerModelFit",
     "PredictAhead",
+    "SCENARIO_MAX_ORDER",
     "ScorePredictions",
     "SteadyStateCovariance",
     "SyntheticPower",
@@ -563,12 +568,19 @@ class PowerModelFit:
     likelihood)."""
 
     def ScenarioFragment(self, estimator_rate: float = 100.0) -> str:
-        """YAML for ``simulate`` with the fitted model (energy_model and estimator keys).
+        """YAML for ``simulate`` with the fitted model (energy_model and estimator keys);
+        ValueError for an order above :data:`SCENARIO_MAX_ORDER`.
 
         q_n and q_0 are random-walk variances per step, rescaled from the log's step to the
         estimator's step 1/rate (:func:`~eaplan_drake.rates.RescaledProcessNoise`); R is the log's
         per-sample noise (also the simulated sensor's σ = √R); τ and q_d are rate independent.
         """
+        if self.order > SCENARIO_MAX_ORDER:
+            raise ValueError(
+                f"scenario fragment: order r = {self.order} is above energy_model.order's "
+                f"largest, {SCENARIO_MAX_ORDER}; fit with orders up to {SCENARIO_MAX_ORDER} "
+                "(FRAGMENT_ORDERS)"
+            )
         log_rate = 1.0 / self.time_step
         qn = RescaledProcessNoise(self.noise.process_noise, log_rate, estimator_rate)
         q0 = RescaledProcessNoise(self.noise.mean_process_noise, log_rate, estimator_rate)
@@ -697,8 +709,20 @@ def FitLevelNoise(
 NOISE_CRITERIA = ("likelihood", "horizons")
 """How :func:`FitNoise` fits the noise: innovation likelihood, or multi-step error."""
 
+HELD_OUT_SPLIT = 0.7
+"""The fraction of the training record on which :func:`FitPowerModel` fits its candidates (the
+rest scores them); it must hold one period."""
+
 ORDERS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
 """Candidate Fourier orders of :func:`FitPowerModel` (those with 2r + 1 ≤ samples per period)."""
+
+SCENARIO_MAX_ORDER = 20
+"""The largest Fourier order a scenario accepts (``energy_model.order`` in
+:mod:`eaplan_drake.params`), hence the largest of a :meth:`PowerModelFit.ScenarioFragment`."""
+
+FRAGMENT_ORDERS = tuple(r for r in ORDERS if r <= SCENARIO_MAX_ORDER)
+"""The candidate orders of ``eaplan-drake fit``, whose ``fit.yaml`` must load as a scenario
+fragment: those of :data:`ORDERS` up to :data:`SCENARIO_MAX_ORDER`."""
 
 
 def FitPowerModel(
@@ -726,12 +750,13 @@ def FitPowerModel(
     z = np.asarray(z, dtype=float).reshape(-1)
     nominal, Ts = PeriodSeries(period, z.size)
     P = int(round(nominal / time_step))
-    if z.size < 2 * P + 8:
+    split = int(HELD_OUT_SPLIT * z.size)
+    if split < P:
         raise ValueError(
-            f"power log: {z.size} samples cover less than two periods of {nominal:g} s "
-            f"at {time_step:g} s; record longer or give a shorter period"
+            f"power log: the first {100 * HELD_OUT_SPLIT:.0f} % of the {z.size} samples at "
+            f"{time_step:.4g} s hold {split * time_step / nominal:.2f} periods of {nominal:.4g} s, "
+            "less than the one the fit needs; record longer or check the period"
         )
-    split = int(0.7 * z.size)
     head = nominal if Ts is None else Ts[:split]
     candidates = []
     best = warm = level_start = None
@@ -883,6 +908,7 @@ def FitPowerLog(
             raise ValueError("period: give either a period or a period log, not both")
         Ts = PeriodInForce(t, *period_log)
         nominal, varying = PeriodSeries(Ts, z.size)
+        CheckLogLength(z.size, dt, nominal, "period log")
         half = z.size // 2
         period = Ts if varying is not None else nominal
         head = Ts[:half] if varying is not None else nominal
@@ -899,9 +925,38 @@ def FitPowerLog(
         if not (math.isfinite(period) and period > 0.0):
             raise ValueError(f"--period: must be finite and > 0 [s], got {period!r}")
         source = "given"
+    CheckLogLength(z.size, dt, period, source)
     half = z.size // 2
     fit = FitPowerModel(z[:half], dt, period, orders, aperiodic)
     return LogFit(fit, ScorePredictions(z, dt, period, fit), t, z, source)
+
+
+def MinimumSamples(time_step: float, period: float) -> int:
+    """The fewest samples of step Δt [s] that :func:`FitPowerLog` fits and scores with period
+    T [s]: the first half (the training record) has one period in its first
+    :data:`HELD_OUT_SPLIT`, and the second half has origins T ahead of a target (after the
+    first period). About 2.9 periods."""
+    P = max(1, int(round(period / time_step)))
+    n = 2 * P + 1
+    while int(HELD_OUT_SPLIT * (n // 2)) < P or n - P <= max(n // 2, P):
+        n += 1
+    return n
+
+
+def CheckLogLength(samples: int, time_step: float, period: float, source: str = "given") -> None:
+    """ValueError (one line) when a log of ``samples`` at Δt [s] is too short for the period T
+    [s] (:func:`MinimumSamples`); ``source`` says where T came from (``given``, ``estimated``,
+    ``period log``; what follows a colon or a parenthesis is left out)."""
+    need = MinimumSamples(time_step, period)
+    if samples < need:
+        where = source.split(":")[0].split(" (")[0]
+        raise ValueError(
+            f"power log: {samples} samples at {time_step:.4g} s ({samples * time_step:.4g} s) "
+            f"cover {samples * time_step / period:.2f} periods of T = {period:.4g} s ({where}); "
+            f"fit needs {need} samples ({need * time_step / period:.2f} periods: it fits on the "
+            "first half and scores up to T ahead on the second); record longer or check the "
+            "period"
+        )
 
 
 def FormatScores(scores: dict) -> str:

@@ -10,8 +10,10 @@ Two layouts are recognised:
   ``timestamp`` [µs], ``voltage_v``, ``current_a``, …) gives power = voltage_v × current_a.
 - **CSV without a header** (Paparazzi logs of the authors): one column is the Paparazzi energy
   log (``pprz_energy.csv``: power [W] at a fixed time step, 0.5 s by default, see
-  :data:`PAPARAZZI_TIME_STEP`); two or more columns are time [s] first and power [W] last
-  (``pprz_throttle.csv``: t, throttle, W), unless other columns are given by index.
+  :data:`PAPARAZZI_TIME_STEP`); with two or more columns nothing says which is which, so the
+  columns must be named by 0-based index: time (or a time step) and power (or voltage and
+  current), e.g. ``pprz_throttle.csv`` (t, throttle, W): time 0, power 2; the authors'
+  ``energy_resized.csv`` (t, measured W, estimated W, q…): time 0, power 1.
 
 Every problem is one :class:`PowerLogError` naming ``file:line:col`` or the missing column.
 """
@@ -203,9 +205,16 @@ def ReadPowerLog(
             ip = _Index(names, power_column, (), path, "power", "--power-column")
             iv = _Index(names, voltage_column, (), path, "voltage", "--voltage-column")
             ic = _Index(names, current_column, (), path, "current", "--current-column")
-            it = 0 if it is None and time_step is None else it
+            missing = []
+            if it is None and time_step is None:
+                missing.append("--time-column (or --time-step)")
             if ip is None and (iv is None or ic is None):
-                ip = len(head) - 1
+                missing.append("--power-column (or --voltage-column and --current-column)")
+            if missing:
+                raise PowerLogError(
+                    f"{path}: no header and {len(head)} columns: name them by 0-based index: "
+                    f"{' and '.join(missing)}"
+                )
     if ip is not None:
         y = data[:, ip]
         what = f"power = {names[ip]}"
