@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 
 import distributed
@@ -138,9 +139,23 @@ def test_dask_local_cluster_runs_the_study(study, tmp_path):
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
-        rows = RunStudy(
-            st, tmp_path / "dask", directory=d, backend="dask", scheduler=client, progress=False
+        rows = []  # RunStudy with the Client, in a thread so that a hang fails the test
+        run = threading.Thread(
+            target=lambda: rows.extend(
+                RunStudy(
+                    st,
+                    tmp_path / "dask",
+                    directory=d,
+                    backend="dask",
+                    scheduler=client,
+                    progress=False,
+                )
+            ),
+            daemon=True,
         )
+        run.start()
+        run.join(timeout=120.0)
+        assert not run.is_alive(), "RunStudy on the LocalCluster did not end within 120 s"
     serial = RunStudy(st, tmp_path / "serial", directory=d, progress=False)
     assert len(rows) == 3 and _Stable(rows) == _Stable(serial)
 
