@@ -75,7 +75,7 @@ def Cases(reference: Path):
         folder = reference / f"plan_{plan}"
         if not folder.is_dir():
             continue
-        log = ReadPowerLog(folder / "energy_resized.csv", power_column=1)
+        log = ReadPowerLog(folder / "energy_resized.csv", time_column=0, power_column=1)
         period_log = ReadPeriodLog(folder / "perioddata.csv")
         yield f"authors' plan {plan}", "authors", log.times, log.power, period_log[1][-1], ""
         if plan in ("i", "ii"):  # c1, hence T, changes mid-flight: the period in force
@@ -85,8 +85,12 @@ def Cases(reference: Path):
     if opterra.is_dir():
         path = np.loadtxt(opterra / "path_sim.csv", delimiter=",")
         track = EstimatePeriodWithConfidence(np.arange(path.shape[0]), path[:, 0])
-        for name in ("pprz_throttle.csv", "pprz_energy.csv"):
-            log = ReadPowerLog(opterra / name)
+        columns = {
+            "pprz_throttle.csv": {"time_column": 0, "power_column": 2},
+            "pprz_energy.csv": {},
+        }
+        for name, named in columns.items():  # the throttle log has no header
+            log = ReadPowerLog(opterra / name, **named)
             yield f"Opterra {name}", "real", log.times, log.power, track.period, track.message
     px4 = os.environ.get("EAPLAN_PX4_DIR")
     if px4:
