@@ -32,7 +32,7 @@ import textwrap  # noqa: E402
 import threading  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from eaplan_drake.errors import ScenarioError  # noqa: E402
+from eaplan_drake.errors import MissingExtraError, ScenarioError  # noqa: E402
 from eaplan_drake.loading import OverrideFromAssignment, ShippedFile  # noqa: E402
 from eaplan_drake.output.reference import (  # noqa: E402
     PAPER_RESULTS,
@@ -144,7 +144,9 @@ def _Compare(args) -> int:
         try:
             import joblib
         except ImportError:
-            raise ScenarioError("--jobs needs the [sweep] extra (joblib)") from None
+            raise MissingExtraError(
+                "compare --jobs needs the [sweep] extra: pip install -e '.[sweep]'"
+            ) from None
         logs = []
         results = joblib.Parallel(n_jobs=args.jobs, return_as="generator")(
             joblib.delayed(Simulate)(s) for _, s in scenarios
@@ -177,20 +179,20 @@ def _Compare(args) -> int:
     return 0
 
 
-def _Sweep(args) -> int:
+def _CheckBackend(args, command: str) -> None:
+    """The extra and the --backend/--jobs/--scheduler combination of a command that flies a
+    study (sweep, certify); raises MissingExtraError or ValueError with one line."""
     import importlib
 
     needed = "distributed" if args.backend == "dask" else "joblib"
     try:
         importlib.import_module(needed)
     except ImportError:
-        print(
-            "eaplan-drake: missing extra: sweep needs the [sweep] extra: pip install -e '.[sweep]'",
-            file=sys.stderr,
-        )
-        return 2
-    from eaplan_drake.studies.cluster import ClusterError, Wait
-    from eaplan_drake.studies.sweep import CheckJobs, LoadStudy, RunStudy, StudyReport
+        raise MissingExtraError(
+            f"{command} needs the [sweep] extra: pip install -e '.[sweep]'"
+        ) from None
+    from eaplan_drake.studies.cluster import Wait
+    from eaplan_drake.studies.sweep import CheckJobs
 
     if args.backend == "dask":
         if not args.scheduler:
@@ -205,27 +207,76 @@ def _Sweep(args) -> int:
         raise ValueError("--scheduler: only with --backend dask")
     else:
         CheckJobs(1 if args.jobs is None else args.jobs, "--jobs")
-    study, directory = LoadStudy(ShippedFile(args.study, "studies")[0])
-    if args.rates:
-        study = dc.replace(study, rates=args.rates)
+
+
+def _FlyStudy(study, directory, args, save_logs: bool = False):
+    """The rows of ``study`` flown into ``args.out`` on the chosen backend; None (after one
+    line) when the cluster did not fly it."""
+    from eaplan_drake.studies.cluster import ClusterError
+    from eaplan_drake.studies.sweep import RunStudy
+
     try:
-        rows = RunStudy(
+        return RunStudy(
             study,
             args.out,
             directory=directory,
             n_jobs=args.jobs,
             backend=args.backend,
             scheduler=args.scheduler or None,
-            save_logs=args.save_logs,
+            save_logs=save_logs,
             wait_for_workers=args.wait_for_workers,
         )
     except ClusterError as e:
         print(f"eaplan-drake: cluster error: {_OneLine(e)}", file=sys.stderr)
+        return None
+
+
+def _Sweep(args) -> int:
+    _CheckBackend(args, "sweep")
+    from eaplan_drake.studies.sweep import LoadStudy, StudyReport
+
+    study, directory = LoadStudy(ShippedFile(args.study, "studies")[0])
+    if args.rates:
+        study = dc.replace(study, rates=args.rates)
+    rows = _FlyStudy(study, directory, args, save_logs=args.save_logs)
+    if rows is None:
         return 3
     report = StudyReport(args.out)
     errors = sum(r["status"] == "error" for r in rows)
     print(f"{len(rows)} flights ({errors} errors); report in {report}")
     print(report.read_text().split("\n\n")[1])
+    return 0
+
+
+def _Certify(args) -> int:
+    _CheckBackend(args, "certify")
+    from eaplan_drake.files import AtomicWrite
+    from eaplan_drake.studies.certify import Certify, CertifyReport, CertifyStudy
+    from eaplan_drake.studies.sweep import StudyReport
+
+    ShippedFile(args.scenario, "scenarios")
+    overrides = {}
+    for assignment in args.set:
+        OverrideFromAssignment(assignment)  # the one-line error for a malformed --set
+        key, _, value = assignment.partition("=")
+        overrides[key.strip()] = value
+    study = CertifyStudy(
+        args.scenario, args.worlds, seed=args.seed, rates=args.rates, overrides=overrides
+    )
+    from eaplan_drake.loading import LayerScenario, LoadNamedScenario
+
+    scenario = LayerScenario(
+        LoadNamedScenario(args.scenario), [OverrideFromAssignment(a) for a in args.set]
+    )
+    rows = _FlyStudy(study, ".", args)
+    if rows is None:
+        return 3
+    StudyReport(args.out)
+    text = "".join(CertifyReport(c) for c in Certify(rows, scenario.planner.risk))
+    out = Path(args.out) / "certify.md"
+    AtomicWrite(out, lambda f: f.write(f"# certify {scenario.name}\n\n{text}"), binary=False)
+    print(text, end="")
+    print(f"rows, report and figures in {args.out} ({out.name})")
     return 0
 
 
@@ -419,6 +470,40 @@ def main(argv=None) -> int:
         "averaging sensor and filter; paper = 100 Hz; scenario = the base scenario's own)",
     )
     p.set_defaults(run=_Sweep)
+    p = sub.add_parser(
+        "certify",
+        help="measure a scenario's excess-failure rate over random worlds and certify its risk",
+        description="Draw --worlds random worlds (wind, sensor noise and dropouts in the "
+        "benchmark's ranges, battery faults from the scenario's planner.fault_model), fly the "
+        "static lowest plan and the scenario's policy on each, and print the excess-failure "
+        "rate (lost where the lowest plan completes) with its exact one-sided 95 % upper bound; "
+        "'certified at ε' (planner.risk) only when that bound is at most ε. Resumes like sweep. "
+        "Exit status 2: bad input or missing extra; 3: the Dask cluster did not fly it.",
+    )
+    p.add_argument("scenario", help="shipped name (plan_i, survey, …) or YAML path")
+    p.add_argument("--out", required=True, help="output directory (rows.jsonl, certify.md)")
+    p.add_argument("--worlds", type=int, default=300, help="number of worlds (default 300)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the world draws (default 0)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY.PATH=VALUE",
+        help="override a key of the scenario (repeatable), e.g. planner.risk=0.01",
+    )
+    p.add_argument(
+        "--rates",
+        choices=(*RATE_PRESETS, "scenario"),
+        default="fast",
+        help="rates of every flight (default fast; paper = 100 Hz; scenario = its own)",
+    )
+    p.add_argument("--jobs", type=int, default=None, help="loky worker processes (as sweep)")
+    p.add_argument("--backend", choices=("loky", "dask"), default="loky", help="as sweep")
+    p.add_argument("--scheduler", default="", help="Dask scheduler address (backend dask)")
+    p.add_argument(
+        "--wait-for-workers", type=float, default=60.0, metavar="SECONDS", help="as sweep"
+    )
+    p.set_defaults(run=_Certify)
     p = sub.add_parser("fit", help="fit the energy model to a power log; score its predictions")
     p.add_argument("log", help="CSV: PX4 battery_status, Paparazzi energy log, or t/power columns")
     p.add_argument("--period", type=float, default=None, help="T [s] (default: estimated)")
@@ -457,6 +542,9 @@ def main(argv=None) -> int:
     previous = _ExitOnSigterm()
     try:
         return args.run(args)
+    except MissingExtraError as e:
+        print(f"eaplan-drake: missing extra: {_OneLine(e)}", file=sys.stderr)
+        return 2
     except ScenarioError as e:
         print(f"eaplan-drake: scenario error: {_OneLine(e)}", file=sys.stderr)
         return 2

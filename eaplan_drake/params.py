@@ -27,6 +27,7 @@ __all__ = [
     "CoverageParams",
     "EnergyModelParams",
     "EstimatorParams",
+    "FaultModelParams",
     "GuidanceParams",
     "MotionPowerParams",
     "PlannerParams",
@@ -492,6 +493,63 @@ class EstimatorParams:
 
 
 @dc.dataclass
+class FaultModelParams:
+    """What the planner believes about battery faults (``planner.fault_model``), beside the
+    scripted ``battery.faults`` (what happens in a flight): SoC drops arrive as a Poisson process
+    of rate λ = ``rate`` [1/s], with i.i.d. sizes [-] from ``sizes``. The default covers the
+    benchmark's random worlds (0–3 drops of up to 15 % in the first 500 s: 1.5 drops per 500 s,
+    sizes uniform in [0, 0.15]). See :mod:`eaplan_drake.planning.risk`, and the docs' policies
+    page for how to estimate λ and the sizes from a fleet's records."""
+
+    rate: float = 0.003
+    """λ, drops per second of flight [1/s], in [0, 0.1]."""
+    sizes: str = "uniform"
+    """Size distribution: ``uniform`` (in ``size_bounds``), ``exponential`` (mean ``size_mean``)
+    or ``empirical`` (equally likely ``size_values``)."""
+    size_bounds: list[float] = dc.field(default_factory=lambda: [0.0, 0.15])
+    """[a, b] of uniform sizes [-], 0 <= a < b <= 1."""
+    size_mean: float = 0.05
+    """Mean of exponential sizes [-], in (0, 1]."""
+    size_values: list[float] = dc.field(default_factory=list)
+    """The recorded sizes of an empirical distribution [-], each in (0, 1], at most 1000."""
+
+    def Validate(self, key: str = "planner.fault_model") -> None:
+        _in_range(self.rate, f"{key}.rate", 0.0, 0.1)
+        _check(
+            self.sizes in FAULT_SIZE_DISTRIBUTIONS,
+            f"{key}.sizes",
+            f"must be one of {', '.join(FAULT_SIZE_DISTRIBUTIONS)}, got {self.sizes!r}",
+        )
+        _vector(self.size_bounds, f"{key}.size_bounds", 2)
+        a, b = self.size_bounds
+        _check(
+            0.0 <= a < b <= 1.0,
+            f"{key}.size_bounds",
+            f"need 0 <= a < b <= 1 [-], got [{a:g}, {b:g}]",
+        )
+        _in_range(self.size_mean, f"{key}.size_mean", 1e-6, 1.0)
+        _check(
+            len(self.size_values) <= 1000,
+            f"{key}.size_values",
+            f"at most 1000 values, got {len(self.size_values)}",
+        )
+        for i, v in enumerate(self.size_values):
+            _in_range(v, f"{key}.size_values[{i}]", 1e-9, 1.0)
+        _check(
+            self.sizes != "empirical" or len(self.size_values) > 0,
+            f"{key}.size_values",
+            "an empirical size distribution needs at least one value",
+        )
+
+
+FAULT_SIZE_DISTRIBUTIONS = ("uniform", "exponential", "empirical")
+"""Values of ``planner.fault_model.sizes``."""
+
+RESERVE_RULES = ("risk", "fixed")
+"""Values of ``planner.reserve``."""
+
+
+@dc.dataclass
 class PlannerParams:
     """Planner-scheduler: which policy decides c1 and c2, and its parameters.
 
@@ -550,6 +608,16 @@ class PlannerParams:
     margin_sigmas: float = 3.0
     """The mpc margin also grows by this many standard deviations of the predicted end SoC,
     from the estimator's variance of the mean power α0 [-]."""
+    reserve: str = "fixed"
+    """How the mpc policy holds SoC back for faults: ``fixed`` (``fault_reserve`` over
+    ``fault_reserve_time``) or ``risk`` (the margin each plan needs so that its excess risk under
+    ``fault_model`` is at most ``risk``; :mod:`eaplan_drake.planning.risk`)."""
+    risk: float = 0.05
+    """ε, the largest excess risk of a decision with ``reserve: risk`` [-], in (0, 1): the
+    probability, under ``fault_model``, that the mission fails although the lowest plan flown from
+    the same state would have completed."""
+    fault_model: FaultModelParams = dc.field(default_factory=FaultModelParams)
+    """The planner's belief about faults (used with ``reserve: risk`` and by ``certify``)."""
     fault_reserve: float = 0.10
     """SoC the mpc policy holds back for battery faults it cannot foresee, on top of the margin
     [-], in [0, 1). 0.10 covers one fault of the reference plan i's size (−6 %, −9 %); measured on
@@ -620,6 +688,13 @@ class PlannerParams:
         _in_range(self.margin_sigmas, f"{key}.margin_sigmas", 0.0, 100.0)
         _in_range(self.fault_reserve, f"{key}.fault_reserve", 0.0, 1.0 - 1e-9)
         _in_range(self.fault_reserve_time, f"{key}.fault_reserve_time", 0.0, 1e5)
+        _check(
+            self.reserve in RESERVE_RULES,
+            f"{key}.reserve",
+            f"must be one of {', '.join(RESERVE_RULES)}, got {self.reserve!r}",
+        )
+        _in_range(self.risk, f"{key}.risk", 1e-6, 1.0 - 1e-6)
+        self.fault_model.Validate(f"{key}.fault_model")
         _check(
             self.solver in ("ipopt", "snopt"),
             f"{key}.solver",

@@ -37,7 +37,6 @@ from eaplan_drake.logfit.fit import (
     UniformPowerSeries,
 )
 from eaplan_drake.logfit.powerlog import (
-    REFERENCE_ENV,
     PowerLogError,
     ReadPeriodLog,
     ReadPowerLog,
@@ -316,10 +315,7 @@ def test_cli_fit_bad_file_is_one_line(tmp_path, capsys):
     assert len(err) == 1 and "no clear period" in err[0] and "--period" in err[0]
 
 
-@pytest.mark.skipif(
-    not ReferenceDirectory().exists(),
-    reason=f"reference data absent (set {REFERENCE_ENV} to the seewald2022 directory)",
-)
+@pytest.mark.authors_data
 def test_opterra_throttle_log_reads_and_has_the_track_period():
     from eaplan_drake.energy.fourier import EstimatePeriodWithConfidence
 

@@ -104,6 +104,7 @@ from eaplan_drake.planning.prediction import (
     SimpsonSocSensitivity,
     StepLoads,
 )
+from eaplan_drake.planning.risk_margin import UNREACHABLE_MARGIN, FaultModelFromParams, RiskTable
 
 __all__ = [
     "MissionDecision",
@@ -194,6 +195,12 @@ class MissionProblem:
         self._margin_floor = float(planner.margin_floor)
         self._fault_reserve = float(planner.fault_reserve)
         self._fault_time = float(planner.fault_reserve_time)
+        self._faults_counted = True
+        self._fault_model = None
+        if planner.reserve == "risk":
+            self._fault_model = FaultModelFromParams(planner.fault_model)
+            self._risk = float(planner.risk)
+            self._risk_times = self._risk_margins = np.zeros(1)
 
     # -- per-step data -------------------------------------------------------------------------
 
@@ -233,6 +240,27 @@ class MissionProblem:
         sigma = math.sqrt(max(float(mean_power_variance), 0.0))
         p = self.params
         self._margin_rate = float(p.margin_sigmas) * s_b * sigma  # [1/s]
+        if self._fault_model is not None:
+            self._SetRiskMargins()
+
+    def _SetRiskMargins(self) -> None:
+        """m_req at the grid's remaining times (``reserve: risk``): against the lowest plan's
+        fault-free margin m_0 = b(t_rem(c̲1); c̲2) − b_res − m_floor − z s_b σ t_rem(c̲1)."""
+        t_low = float(self.t_rem[0])
+        g_low = float(self.candidate_power[self.lowest_candidate])
+        m_0 = (
+            float(self.SocAt(g_low, t_low))
+            - float(self.battery.reserve_soc)
+            - self._margin_floor
+            - self._margin_rate * t_low
+        )
+        table = RiskTable(self._fault_model, float(np.max(self.t_rem)))
+        times = np.unique(self.t_rem)
+        margins = table.RequiredMargin(times, t_low, m_0, self._risk)
+        self._risk_times = times
+        # a plan no margin keeps within ε needs more than the lowest plan has: just above m_0
+        # (not +inf), which excludes it as surely and keeps the NLP's constraint gentle
+        self._risk_margins = np.minimum(margins, max(m_0, 0.0) + UNREACHABLE_MARGIN)
 
     def SetObservation(self, observation) -> None:
         """:meth:`SetState` from a :class:`~eaplan_drake.planning.planner.PlannerObservation`."""
@@ -248,8 +276,13 @@ class MissionProblem:
 
     def FaultReserve(self, t):
         """m_fault(t) [-] for the remaining time t [s]: ``fault_reserve`` · min(1, t/τ_f), the
-        whole reserve when τ_f = ``fault_reserve_time`` is 0."""
+        whole reserve when τ_f = ``fault_reserve_time`` is 0; with ``reserve: risk`` the risk
+        margin m_req(t), linear between the grid's remaining times."""
         t = np.asarray(t, dtype=float)
+        if not self._faults_counted:
+            return np.zeros_like(t)
+        if self._fault_model is not None:
+            return np.interp(t, self._risk_times, self._risk_margins)
         if self._fault_time <= 0.0:
             return np.full_like(t, self._fault_reserve)
         return self._fault_reserve * np.minimum(1.0, np.maximum(t, 0.0) / self._fault_time)
@@ -259,9 +292,25 @@ class MissionProblem:
         t = np.asarray(t, dtype=float)
         return self._margin_floor + self.FaultReserve(t) + self._margin_rate * t
 
+    def RecursiveMargin(self, t):
+        """The margin (2) asks of the lowest plan after this step [-]: m(t) with the fixed
+        reserve; with ``reserve: risk`` only m_floor + z s_b σ t (the lowest plan's own fault
+        risk is the world's: it is what every policy falls back to)."""
+        if self._fault_model is None:
+            return self.Margin(t)
+        return self._margin_floor + self._margin_rate * np.asarray(t, dtype=float)
+
     def MarginSlope(self, t: float) -> float:
-        """dm/dt [1/s] at the remaining time t [s] (right derivative at the kink t = τ_f)."""
+        """dm/dt [1/s] at the remaining time t [s] (right derivative at a kink)."""
         slope = self._margin_rate
+        if not self._faults_counted:
+            return slope
+        if self._fault_model is not None:
+            times, margins = self._risk_times, self._risk_margins
+            k = int(np.clip(np.searchsorted(times, t, side="right"), 1, times.size - 1))
+            if times.size > 1 and times[0] <= t < times[-1]:
+                slope += (margins[k] - margins[k - 1]) / (times[k] - times[k - 1])
+            return slope
         if 0.0 < self._fault_time and t < self._fault_time:
             slope += self._fault_reserve / self._fault_time
         return slope
@@ -297,7 +346,7 @@ class MissionProblem:
             - float(self.SocAt(g_low, h))
             + b_low_end
             - float(self.battery.reserve_soc)
-            - float(self.Margin(t_low))
+            - float(self.RecursiveMargin(t_low))
         )
 
     def FeasibleRow(self, power: float) -> tuple[np.ndarray, np.ndarray]:
@@ -338,12 +387,12 @@ class MissionProblem:
         uncertainty term nor the fault reserve counted): when it does not, the survey is
         infeasible; when only those terms exclude it, the planner flies the lowest plan to keep
         as much of them as it can."""
-        saved = self._margin_rate, self._fault_reserve
-        self._margin_rate, self._fault_reserve = 0.0, 0.0
+        saved = self._margin_rate, self._faults_counted
+        self._margin_rate, self._faults_counted = 0.0, False
         try:
             return self.Lowest().feasible
         finally:
-            self._margin_rate, self._fault_reserve = saved
+            self._margin_rate, self._faults_counted = saved
 
     def BestOf(self, candidates, powers, path_index_limit: int | None = None):
         """The best feasible plan over the c2 ``candidates`` (rows) with exact ``powers`` [W],
@@ -588,7 +637,7 @@ class MissionProgram:
         b_step, _, db_step_dg = pb.SmoothSoc(g, pb.step)
         low_step = pb.SmoothSoc(g_low, pb.step)[0]
         low_end = pb.SmoothSoc(g_low, t_low)[0]
-        c2 = b_step - low_step + low_end - reserve - float(pb.Margin(t_low))
+        c2 = b_step - low_step + low_end - reserve - float(pb.RecursiveMargin(t_low))
         out = self.scale * np.array([c1, c2])
         if not autodiff:
             return out

@@ -52,12 +52,13 @@ import numpy as np
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import JsonSafe
 from eaplan_drake.loading import LayerScenario, OverrideFromAssignment
-from eaplan_drake.params import BatteryFault, Scenario
+from eaplan_drake.params import MAX_FAULTS, BatteryFault, FaultModelParams, Scenario
 from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
 from eaplan_drake.studies.cluster import WAIT_FOR_WORKERS, ClusterError, MapOnDask, Wait
 
 __all__ = [
     "CheckJobs",
+    "DrawFaults",
     "ClusterError",
     "FaultDistribution",
     "FlyRow",
@@ -111,6 +112,11 @@ class Study:
     """Key path → list of YAML values, one drawn uniformly."""
     faults: FaultDistribution | None = None
     """Random battery faults (replace the base's), or none."""
+    fault_model: FaultModelParams | None = None
+    """Random battery faults drawn from a fault model (replace the base's): Poisson arrivals of
+    rate ``rate`` over the flight's ``simulation.time_limit``, sizes from its distribution. The
+    base's own ``planner.fault_model`` makes the planner's belief true; another one is a
+    mismatch. Not together with ``faults``."""
     draws: int = 1
     """Number of random draws per grid point."""
     seed: int = 0
@@ -147,9 +153,14 @@ def LoadStudy(filename: str | Path) -> tuple[Study, Path]:
     try:
         if raw.get("faults") is not None:
             raw["faults"] = FaultDistribution(**raw["faults"])
+        if raw.get("fault_model") is not None:
+            raw["fault_model"] = FaultModelParams(**raw["fault_model"])
+            raw["fault_model"].Validate(f"{path}: fault_model")
         study = Study(**raw)
     except TypeError as e:
         raise ScenarioError(f"{path}: {e}") from None
+    if study.faults is not None and study.fault_model is not None:
+        raise ScenarioError(f"{path}: faults, fault_model: give one of them, not both")
     for key in ("set", "grid", "uniform", "normal", "choice"):
         if not isinstance(getattr(study, key), dict):
             raise ScenarioError(f"{path}: {key}: expected a mapping of key paths")
@@ -222,6 +233,10 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
                 ]
                 varied["faults.count"] = n
                 varied["faults.total_drop"] = float(np.sum(drops))
+            elif study.fault_model is not None:
+                s.battery.faults = DrawFaults(rng, study.fault_model, s.simulation.time_limit)
+                varied["faults.count"] = len(s.battery.faults)
+                varied["faults.total_drop"] = float(sum(f.soc_drop for f in s.battery.faults))
             s.random_seed = int(rng.integers(0, 2**31 - 1))
             s.name = f"{study.name}_w{world}"
             for policy in ([LOWEST] if study.lowest_reference else []) + list(study.policies):
@@ -230,6 +245,24 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
                 flights.append((keys, flight))
             world += 1
     return flights
+
+
+def DrawFaults(rng: np.random.Generator, model: FaultModelParams, horizon: float) -> list:
+    """Battery faults drawn from ``model`` over [0, ``horizon``] [s]: a Poisson number of drops
+    at uniform times (the arrivals of a Poisson process of rate λ), sizes from the model's
+    distribution, at most :data:`~eaplan_drake.params.MAX_FAULTS` (the earliest)."""
+    n = min(int(rng.poisson(model.rate * horizon)), MAX_FAULTS)
+    times = np.sort(rng.uniform(0.0, horizon, size=n))
+    if model.sizes == "uniform":
+        sizes = rng.uniform(*model.size_bounds, size=n)
+    elif model.sizes == "exponential":
+        sizes = np.minimum(rng.exponential(model.size_mean, size=n), 1.0)
+    else:
+        sizes = rng.choice(np.asarray(model.size_values, dtype=float), size=n)
+    return [
+        BatteryFault(time=float(t), soc_drop=float(max(x, 1e-6)))
+        for t, x in zip(times, sizes, strict=True)
+    ]
 
 
 def ScenarioHash(scenario: Scenario) -> str:

@@ -1,0 +1,214 @@
+"""The risk-aware reserve of the mpc policy (``planner.reserve: risk``): for each plan, the margin
+it must keep so that its excess risk under the declared fault model is at most ε.
+
+:mod:`eaplan_drake.planning.risk` defines the excess risk R(p) of a plan p (remaining time τ_p
+[s], fault-free margin m_p [-]) over the lowest plan (τ_0, m_0) from the same state, with the
+fallback to the lowest plan at the first drop::
+
+    R(p) = P(F_p) − P(F_0),
+    P(F_p) = ∫_0^1 Λ_p e^(−Λ_p u) Σ_n Pois(n; Λ_0 (1 − u)) Q_(n+1)(u m_p + (1 − u) m_0) du,
+    P(F_0) = Σ_n Pois(n; Λ_0) Q_n(m_0),
+
+Λ = λτ the expected drops, Q_n(m) = P(X_1 + … + X_n > m) for the drop sizes X. The planner
+evaluates it for every c1 of its grid at every step, so :class:`ExcessRiskTable` tabulates Q_n once
+per fault model on a grid of margins (step ``margin_step``) and integrates u by composite
+Gauss–Legendre. The table is read conservatively: Q at the grid point below the margin in P(F_p)
+(Q falls with m, so that is an upper bound), and P(F_0) is exact
+(:func:`~eaplan_drake.planning.risk.TotalDropTail`), so the tabulated R is never below the exact
+one, and above it by at most the change of Q over one grid step (tested against
+:func:`~eaplan_drake.planning.risk.ExcessRiskBounds`).
+
+:meth:`ExcessRiskTable.RequiredMargin` inverts R in m_p by bisection: m_req(τ_p) is the smallest
+margin with R ≤ ε (0 when even m_p = 0 is within ε; +inf when no m_p ≤ m_0 is: longer exposure
+alone costs more than ε). The mpc's constraint (1) then reads b(t_rem(c1_j); c2) ≥ b_res +
+m_floor + z s_b σ t + m_req(t_rem(c1_j)) in place of the fixed fault reserve. The lowest plan
+itself always meets it (its R is 0, so m_req(τ_0) ≤ m_0): the constraint never removes the
+fallback, and recursive feasibility holds as with the fixed reserve.
+"""
+
+import functools
+import math
+
+import numpy as np
+
+from eaplan_drake.params import FaultModelParams
+from eaplan_drake.planning.risk import (
+    EmpiricalDrops,
+    ExponentialDrops,
+    FaultModel,
+    TotalDropTail,
+    UniformDrops,
+)
+
+__all__ = ["UNREACHABLE_MARGIN", "ExcessRiskTable", "FaultModelFromParams", "RiskTable"]
+
+UNREACHABLE_MARGIN = 0.01
+"""How far above the lowest plan's margin m_0 [-] the mpc puts m_req of a plan that no margin
+keeps within ε: every plan spends at least what the lowest does, so that excludes it, and the
+NLP's constraint stays finite and gentle."""
+
+
+def _Quadrature(panels: int = 4, order: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes u and weights of composite Gauss–Legendre on [0, 1]."""
+    nodes, weights = np.polynomial.legendre.leggauss(order)
+    edges = np.linspace(0.0, 1.0, panels + 1)
+    half = 0.5 * (edges[1:] - edges[:-1])
+    u = (0.5 * (edges[:-1] + edges[1:]))[:, None] + half[:, None] * nodes
+    return u.ravel(), (half[:, None] * weights).ravel()
+
+
+_U, _W = _Quadrature()
+_LOG_FACTORIALS = np.array([math.lgamma(i + 1.0) for i in range(4096)])
+_TINY = 1e-150
+"""Probabilities below this are taken as 0 [-] (far below every tolerance here)."""
+_SEARCH = 32
+"""Margins tried per bisection stage of :meth:`ExcessRiskTable.RequiredMargin`."""
+
+
+def FaultModelFromParams(params: FaultModelParams) -> FaultModel:
+    """The :class:`~eaplan_drake.planning.risk.FaultModel` a ``planner.fault_model`` declares."""
+    if params.sizes == "uniform":
+        sizes = UniformDrops(*(float(v) for v in params.size_bounds))
+    elif params.sizes == "exponential":
+        sizes = ExponentialDrops(float(params.size_mean))
+    else:
+        sizes = EmpiricalDrops(tuple(float(v) for v in params.size_values))
+    return FaultModel(float(params.rate), sizes)
+
+
+def _PoissonWeights(mean: np.ndarray, n: int) -> np.ndarray:
+    """e^(−Λ) Λ^k / k! for k = 0..n−1, shape mean.shape + (n,)."""
+    mean = np.asarray(mean, dtype=float)[..., None]
+    k = np.arange(n)
+    log_mean = np.log(np.where(mean > 0.0, mean, 1.0))
+    pmf = np.exp(k * log_mean - mean - _LOG_FACTORIALS[:n])
+    pmf = np.where(pmf < _TINY, 0.0, pmf)  # no subnormals: they make the products slow
+    return np.where(mean > 0.0, pmf, (k == 0).astype(float))
+
+
+def _Cutoff(mean: float) -> int:
+    """Counts 0..n−1 to sum: n = Λ + 8√Λ + 18, beyond which the Poisson mass is below 1e-15
+    for every Λ ≤ 1000 (the Chernoff bound e^(−Λ) (eΛ/k)^k)."""
+    return int(mean + 8.0 * math.sqrt(max(mean, 0.0)) + 18.0)
+
+
+class ExcessRiskTable:
+    """R(p) and m_req for one fault model, from Q_n tabulated on margins 0, h, 2h, … 1
+    (``margin_step`` h [-]) for exposures up to ``max_exposure`` [s]."""
+
+    def __init__(self, model: FaultModel, max_exposure: float, margin_step: float = 1e-3):
+        if not (math.isfinite(max_exposure) and max_exposure > 0.0):
+            raise ValueError(f"max_exposure: must be finite and > 0 [s], got {max_exposure!r}")
+        if not (1e-5 <= margin_step <= 0.01):
+            raise ValueError(f"margin_step: must be in [1e-5, 0.01] [-], got {margin_step!r}")
+        self.model = model
+        self.max_exposure = float(max_exposure)
+        self.step = float(margin_step)
+        self.counts = _Cutoff(model.rate * self.max_exposure) + 1
+        self.margins = np.arange(int(round(1.0 / self.step)) + 1) * self.step
+        q = np.asarray(model.sizes.sum_tail(self.counts, self.margins))  # (K, counts + 1)
+        self.q = np.ascontiguousarray(np.where(q < _TINY, 0.0, q).T)  # (counts + 1, K)
+
+    def _Q(self, m: np.ndarray, upper: bool, first: int, n: int) -> np.ndarray:
+        """Q_k(m) for k = first..first+n−1 from the table: at the grid point below m (``upper``:
+        an upper bound) or above it; 1 for m < 0; shape m.shape + (n,)."""
+        m = np.asarray(m, dtype=float)
+        x = np.clip(m, 0.0, 1.0) / self.step
+        index = np.clip(
+            (np.floor(x) if upper else np.ceil(x)).astype(int), 0, self.margins.size - 1
+        )
+        q = self.q[first : first + n, index]  # (n, ...)
+        q = np.moveaxis(q, 0, -1)
+        return np.where(m[..., None] < 0.0, 1.0, q)
+
+    def _Counts(self, *means) -> int:
+        largest = max(float(np.max(np.asarray(m), initial=0.0)) for m in means)
+        if largest > self.model.rate * self.max_exposure * (1.0 + 1e-9):
+            raise ValueError(
+                f"exposure: at most {self.max_exposure:g} s for this table, got "
+                f"{largest / self.model.rate:g} s"
+            )
+        return min(_Cutoff(largest), self.counts)
+
+    def LowestFailure(self, lowest_time, lowest_margin) -> np.ndarray:
+        """P(F_0) = P(S(τ_0) > m_0) [-]: the lowest plan's own risk, exact
+        (:func:`~eaplan_drake.planning.risk.TotalDropTail`, once per distinct (τ_0, m_0))."""
+        tau_0, m_0 = np.broadcast_arrays(
+            np.asarray(lowest_time, dtype=float), np.asarray(lowest_margin, dtype=float)
+        )
+        pairs, inverse = np.unique(
+            np.stack([tau_0.ravel(), m_0.ravel()]), axis=1, return_inverse=True
+        )
+        tails = np.atleast_1d(TotalDropTail(self.model, pairs[0], pairs[1]))
+        return tails[inverse.reshape(-1)].reshape(tau_0.shape)
+
+    def Risk(self, plan_time, plan_margin, lowest_time, lowest_margin) -> np.ndarray:
+        """R(p) [-] of plans (τ_p [s], m_p [-]) against the lowest plan (τ_0 [s], m_0 [-]);
+        broadcasts; 0 for the lowest plan itself; never below the exact value."""
+        tau_p, m_p, tau_0, m_0 = np.broadcast_arrays(
+            *(
+                np.asarray(a, dtype=float)
+                for a in (plan_time, plan_margin, lowest_time, lowest_margin)
+            )
+        )
+        if tau_0.size and np.all(tau_0 == tau_0.flat[0]):
+            fail_p = self._PlanFailure(tau_p, m_p, float(tau_0.flat[0]), m_0)
+        else:  # one lowest plan per candidate
+            fail_p = np.vectorize(self._PlanFailure)(tau_p, m_p, tau_0, m_0)
+        fail_0 = self.LowestFailure(tau_0, m_0)
+        ordered = (tau_p >= tau_0) & (m_p <= m_0)
+        risk = np.where(ordered, fail_p - fail_0, np.minimum(fail_p, 1.0 - fail_0))
+        lowest = (tau_p == tau_0) & (m_p == m_0)
+        return np.where(lowest, 0.0, np.clip(risk, 0.0, 1.0))
+
+    def _PlanFailure(self, tau_p, m_p, tau_0: float, m_0) -> np.ndarray:
+        """P(F_p) (an upper bound) for plans against one lowest plan time τ_0: the drops after
+        the first one, G_u(m) = Σ_n Pois(n; Λ_0 (1 − u)) Q_(n+1)(m), tabulated once over the
+        margin grid for the quadrature's u, then read at M(u) for every plan."""
+        lam = self.model.rate
+        mean_p = lam * np.asarray(tau_p, dtype=float)
+        n = self._Counts(mean_p, lam * tau_0)
+        later = _PoissonWeights(lam * tau_0 * (1.0 - _U), n)  # (U, n)
+        mixed = later @ self.q[1 : n + 1]  # (U, K): G_u on the margin grid
+        margin = _U * np.asarray(m_p)[..., None] + (1.0 - _U) * np.asarray(m_0)[..., None]
+        index = np.floor(np.clip(margin, 0.0, 1.0) / self.step).astype(int)
+        tail = np.where(margin < 0.0, 1.0, mixed[np.arange(_U.size), index])  # (..., U)
+        density = mean_p[..., None] * np.exp(-mean_p[..., None] * _U)
+        return np.sum(_W * density * tail, axis=-1) + np.exp(-mean_p) * (np.asarray(m_p) < 0.0)
+
+    def RequiredMargin(self, plan_time, lowest_time: float, lowest_margin: float, eps: float):
+        """m_req(τ_p) [-] for each plan time τ_p [s]: the smallest m_p ≤ m_0 with R ≤ ``eps``,
+        to m_0 / 32² (two stages of 32 margins each, rounded up: conservative, deterministic);
+        0 if m_p = 0 already is; +inf if not even m_0 is. With m_0 ≤ 0 (the lowest plan fails
+        without any fault) it is 0: nothing to protect."""
+        tau_p = np.asarray(plan_time, dtype=float).reshape(-1)
+        m_0 = float(lowest_margin)
+        if m_0 <= 0.0 or tau_p.size == 0:
+            return np.zeros_like(tau_p)
+        lo = np.zeros_like(tau_p)
+        width = np.full_like(tau_p, m_0)
+        found = np.zeros(tau_p.shape, dtype=bool)
+        for _ in range(2):
+            trial = lo[:, None] + width[:, None] * np.arange(_SEARCH + 1) / _SEARCH
+            ok = self.Risk(tau_p[:, None], trial, lowest_time, m_0) <= eps
+            found = ok[:, -1] if not np.any(found) else found
+            first = np.where(ok.any(axis=1), np.argmax(ok, axis=1), _SEARCH)
+            hi = np.take_along_axis(trial, first[:, None], axis=1)[:, 0]
+            lo = np.where(first > 0, hi - width / _SEARCH, hi)
+            width = hi - lo
+        return np.where(found, hi, np.inf)
+
+
+@functools.lru_cache(maxsize=16)
+def _CachedTable(model: FaultModel, exposure_bucket: float) -> ExcessRiskTable:
+    return ExcessRiskTable(model, exposure_bucket)
+
+
+def RiskTable(model: FaultModel, exposure: float) -> ExcessRiskTable:
+    """The :class:`ExcessRiskTable` of ``model`` for exposures up to ``exposure`` [s], built once
+    per process for each power of two of seconds (at least 1024 s) and reused: a pure function of
+    its arguments, so flights stay deterministic."""
+    bucket = 1024.0
+    while bucket < exposure:
+        bucket *= 2.0
+    return _CachedTable(model, bucket)

@@ -1,0 +1,188 @@
+"""The planner's risk reserve (eaplan_drake.planning.risk_margin and the mpc's ``reserve: risk``):
+the tabulated excess risk against the exact bounds of eaplan_drake.planning.risk, the required
+margin it inverts, and the mpc that keeps every decision within ε and agrees with brute force."""
+
+import numpy as np
+import pytest
+from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
+
+from eaplan_drake.energy.computation import LoadComputationTable
+from eaplan_drake.flight.coverage import MakeCoveragePlan
+from eaplan_drake.params import (
+    BatteryParams,
+    CoverageParams,
+    FaultModelParams,
+    PlannerParams,
+    VehicleParams,
+)
+from eaplan_drake.planning.policies import MakePolicy
+from eaplan_drake.planning.risk import (
+    EmpiricalDrops,
+    ExcessRiskBounds,
+    ExponentialDrops,
+    FaultModel,
+    UniformDrops,
+)
+from eaplan_drake.planning.risk_margin import (
+    UNREACHABLE_MARGIN,
+    ExcessRiskTable,
+    FaultModelFromParams,
+    RiskTable,
+)
+from eaplan_drake.studies.worlds import RandomPlannerObservation
+
+GRID = np.linspace(-1000.0, 0.0, 21)
+MODELS = {
+    "uniform": FaultModel(0.003, UniformDrops(0.0, 0.15)),
+    "exponential": FaultModel(0.004, ExponentialDrops(0.06)),
+    "empirical": FaultModel(0.003, EmpiricalDrops((0.06, 0.09, 0.12))),
+}
+
+
+def _States(n=200, seed=1):
+    rng = np.random.default_rng(seed)
+    tau_0 = rng.uniform(10.0, 500.0, n)
+    tau_p = tau_0 + rng.uniform(0.0, 150.0, n)
+    m_0 = rng.uniform(0.0, 0.3, n)
+    m_p = np.maximum(m_0 - rng.uniform(0.0, 0.15, n), -0.01)
+    return tau_p, m_p, tau_0, m_0
+
+
+@pytest.mark.parametrize("kind", ["uniform", "exponential"])
+def test_the_table_is_conservative_and_close_to_the_exact_bounds(kind):
+    model = MODELS[kind]
+    tau_p, m_p, tau_0, m_0 = _States()
+    lower, upper = ExcessRiskBounds(model, tau_p, m_p, tau_0, m_0, cells=512)
+    fast = ExcessRiskTable(model, 2000.0).Risk(tau_p, m_p, tau_0, m_0)
+    assert np.all(fast >= lower - 1e-9)  # never below the exact value
+    assert np.max(fast - upper) <= 0.005  # and at most a grid step of Q above it
+
+
+def test_empirical_sizes_stay_within_the_quadrature_tolerance():
+    model = MODELS["empirical"]
+    tau_p, m_p, tau_0, m_0 = _States()
+    lower, upper = ExcessRiskBounds(model, tau_p, m_p, tau_0, m_0, cells=512)
+    fast = ExcessRiskTable(model, 2000.0).Risk(tau_p, m_p, tau_0, m_0)
+    assert np.all(fast >= lower - 0.01) and np.all(fast <= upper + 0.01)
+
+
+@pytest.mark.parametrize("kind", sorted(MODELS))
+def test_the_lowest_plan_has_no_excess_and_more_spending_more(kind):
+    table = RiskTable(MODELS[kind], 600.0)
+    assert table.Risk(300.0, 0.12, 300.0, 0.12) == 0.0
+    risks = table.Risk(300.0, np.array([0.11, 0.08, 0.04, 0.0]), 300.0, 0.12)
+    assert np.all(np.diff(risks) >= 0.0) and risks[-1] > risks[0]
+    longer = table.Risk(np.array([300.0, 350.0, 450.0]), 0.08, 300.0, 0.12)
+    assert np.all(np.diff(longer) >= -1e-12)
+
+
+def test_the_required_margin_is_the_smallest_within_eps():
+    table = RiskTable(MODELS["uniform"], 700.0)
+    times = np.linspace(250.0, 620.0, 21)
+    m_req = table.RequiredMargin(times, 247.0, 0.3, 0.05)
+    finite = np.isfinite(m_req)
+    assert finite[0] and m_req[0] <= 0.3  # the lowest plan's own time: within reach
+    assert np.all(table.Risk(times[finite], m_req[finite], 247.0, 0.3) <= 0.05)
+    below = np.maximum(m_req[finite] - 0.3 / 32**2 - 1e-9, 0.0)
+    positive = m_req[finite] > 0.3 / 32**2
+    assert np.all(table.Risk(times[finite], below, 247.0, 0.3)[positive] > 0.05)
+    # thin world: a lowest plan 0.03 above its floor leaves almost nothing to spend
+    thin = table.RequiredMargin(times[:3], 247.0, 0.03, 0.05)
+    assert np.all(thin >= 0.0) and thin[0] <= 0.03
+    assert np.all(table.RequiredMargin(times, 247.0, -0.01, 0.05) == 0.0)
+    assert np.isinf(RiskTable(MODELS["uniform"], 5000.0).RequiredMargin([5000.0], 100.0, 0.02, 0.01)[0])
+
+
+def test_fault_model_params_build_each_size_distribution():
+    assert FaultModelFromParams(FaultModelParams()) == FaultModel(0.003, UniformDrops(0.0, 0.15))
+    exp = FaultModelFromParams(FaultModelParams(sizes="exponential", size_mean=0.05))
+    assert exp.sizes == ExponentialDrops(0.05)
+    emp = FaultModelFromParams(FaultModelParams(sizes="empirical", size_values=[0.05, 0.1]))
+    assert emp.sizes == EmpiricalDrops((0.05, 0.1))
+
+
+@pytest.fixture(scope="module")
+def table():
+    return LoadComputationTable("pednet_jetson_nano")
+
+
+@pytest.fixture(scope="module")
+def plan():
+    return MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=0.0, k_e=0.05)
+
+
+def _RiskPolicy(table, **planner):
+    return MakePolicy(
+        PlannerParams(reserve="risk", **planner),
+        table,
+        3,
+        BatteryParams(),
+        coverage_time_bounds=(1, 2),
+        path_parameter_grid=GRID,
+    )
+
+
+def test_every_risk_decision_keeps_its_excess_risk_within_eps(table, plan):
+    policy = _RiskPolicy(table, risk=0.05)
+    pb = policy.problem
+    exact = FaultModelFromParams(FaultModelParams())
+    rng = np.random.default_rng(7)
+    memory = policy.InitialMemory()
+    checked = 0
+    while checked < 40:
+        o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
+        pb.SetObservation(o)
+        if not pb.Lowest().feasible:
+            continue
+        d = policy.Plan(o, memory)
+        memory = d.memory
+        j = int(np.flatnonzero(GRID == d.path_parameter)[0])
+        floor = pb.Margin(pb.t_rem[j]) - pb.FaultReserve(pb.t_rem[j])
+        m_p = d_end = pb.SocAt(float(table.power(d.computation_parameters)), pb.t_rem[j])
+        m_p = d_end - pb.battery.reserve_soc - floor
+        low = pb.Lowest()
+        m_0 = low.end_soc - pb.battery.reserve_soc - (pb.Margin(pb.t_rem[0]) - pb.FaultReserve(pb.t_rem[0]))
+        _, upper = ExcessRiskBounds(exact, pb.t_rem[j], m_p, pb.t_rem[0], m_0, cells=256)
+        assert upper <= 0.05 + 0.01, (checked, upper)  # within ε up to the table's step
+        checked += 1
+
+
+def test_the_risk_constraint_jacobian_matches_finite_differences(table):
+    policy = _RiskPolicy(table)
+    pb, program = policy.problem, policy.program
+    rng = np.random.default_rng(3)
+    q = np.concatenate(([rng.uniform(26.0, 40.0)], rng.normal(0.0, 1.5, 6)))
+    pb.SetState(q, 1e-3, 0.8, 46.0, np.linspace(200.0, 500.0, GRID.size), [10.0])
+    for x in ([0.3, 0.6], [0.71, 0.05], [0.52, 0.93]):
+        x = np.array(x)
+        J = ExtractGradient(program._Constraints(InitializeAutoDiff(x)))
+        for i in range(2):
+            e = np.zeros(2)
+            e[i] = 1e-6
+            fd = (program._Constraints(x + e) - program._Constraints(x - e)) / 2e-6
+            np.testing.assert_allclose(J[:, i], fd, rtol=1e-3, atol=1e-4)
+
+
+@pytest.mark.slow
+def test_risk_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan):
+    """The NLP relaxation with the risk reserve agrees with enumeration in >= 99 % of 200 random
+    feasible planner states."""
+    policy = _RiskPolicy(table)
+    rng = np.random.default_rng(2025)
+    memory = policy.InitialMemory()
+    agree = total = 0
+    while total < 200:
+        o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
+        pb = policy.problem
+        pb.SetObservation(o)
+        if not pb.Lowest().feasible:
+            continue
+        expected = pb.BruteForce()
+        d = policy.Plan(o, memory)
+        memory = d.memory
+        total += 1
+        agree += d.path_parameter == expected.path_parameter and np.array_equal(
+            d.computation_parameters, expected.computation_parameters
+        )
+    assert agree / total >= 0.99, f"{agree} of {total}"
+    assert 0.0 < UNREACHABLE_MARGIN <= 0.05
