@@ -274,3 +274,18 @@ def test_failed_solve_keeps_c1_and_takes_the_best_admissible_c2(table):
         else:
             assert d.path_parameter < -500.0
     assert seen >= 5
+
+
+def test_the_prediction_is_bounded_by_the_longest_legal_flight(table):
+    """A plan far longer than any flight (a crawling aircraft) neither allocates rows for its whole
+    length nor counts as feasible: the rows stop at MAX_TIME_LIMIT."""
+    from eaplan_drake.params import MAX_TIME_LIMIT
+
+    for reserve in ("fixed", "risk"):
+        pb = _Problem(table, reserve=reserve)
+        q = np.concatenate(([30.0], np.zeros(2 * ORDER)))
+        pb.SetState(q, 1e-4, 0.9, PERIOD, np.full(GRID.size, 1e9), [10.0])
+        rows = 2 * (math.ceil(MAX_TIME_LIMIT / pb.step) + 2) + 1
+        assert pb.f_half.size <= rows and pb.f_half.nbytes <= rows * 8
+        assert not pb.Lowest().feasible
+        assert pb.BruteForce().path_parameter == GRID[0]  # infeasible: the lowest plan

@@ -95,7 +95,7 @@ from pydrake.solvers import MathematicalProgram
 from eaplan_drake.energy.battery_model import AsBatteryModel
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
-from eaplan_drake.params import BatteryParams, PlannerParams
+from eaplan_drake.params import MAX_TIME_LIMIT, BatteryParams, PlannerParams
 from eaplan_drake.planning.nlp import MakeSolver
 from eaplan_drake.planning.prediction import (
     GridCandidates,
@@ -196,6 +196,7 @@ class MissionProblem:
         self._fault_reserve = float(planner.fault_reserve)
         self._fault_time = float(planner.fault_reserve_time)
         self._faults_counted = True
+        self._max_steps = math.ceil(MAX_TIME_LIMIT / self.step)
         self._fault_model = None
         if planner.reserve == "risk":
             self._fault_model = FaultModelFromParams(planner.fault_model)
@@ -225,7 +226,11 @@ class MissionProblem:
         self.t_rem = np.maximum(t_rem, 0.0)
         self.g_now = float(self.table.power(np.asarray(computation_parameters, dtype=float)))
         h = self.step
-        n = max(2, math.ceil(float(np.max(self.t_rem)) / h) + 2)
+        # The prediction covers the longest plan, but never more than the longest flight a
+        # scenario may ask for (MAX_TIME_LIMIT): a plan longer than that cannot be completed
+        # (it is infeasible, below), and the free-response rows stay bounded in memory.
+        n = max(2, min(math.ceil(float(np.max(self.t_rem)) / h), self._max_steps) + 2)
+        self._beyond = self.t_rem > (n - 2) * h
         key = (float(period), n)
         if self._rows_key != key:  # a pure function of (T, n): cached
             self._rows = FreeResponseMatrix(self.order, float(period), 0.5 * h, 2 * n + 1)
@@ -254,8 +259,8 @@ class MissionProblem:
             - self._margin_floor
             - self._margin_rate * t_low
         )
-        table = RiskTable(self._fault_model, float(np.max(self.t_rem)))
-        times = np.unique(self.t_rem)
+        times = np.unique(np.minimum(self.t_rem, (self.n - 2) * self.step))
+        table = RiskTable(self._fault_model, float(times[-1]))
         margins = table.RequiredMargin(times, t_low, m_0, self._risk)
         self._risk_times = times
         # a plan no margin keeps within ε needs more than the lowest plan has: just above m_0
@@ -352,7 +357,7 @@ class MissionProblem:
     def FeasibleRow(self, power: float) -> tuple[np.ndarray, np.ndarray]:
         """(feasible (M,), end SoC (M,)) of the plans (c1_j, c2) for g(c2) = ``power`` [W]."""
         end = self.SocAt(power, self.t_rem)
-        ok = end >= float(self.battery.reserve_soc) + self.Margin(self.t_rem)
+        ok = (end >= float(self.battery.reserve_soc) + self.Margin(self.t_rem)) & ~self._beyond
         if self.RecursiveSlack(power) < 0.0:
             ok = np.zeros_like(ok)
         return ok, end

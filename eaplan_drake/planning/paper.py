@@ -78,7 +78,7 @@ from pydrake.solvers import MathematicalProgram
 from eaplan_drake.energy.battery_model import AsBatteryModel
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
-from eaplan_drake.params import BatteryParams, PlannerParams
+from eaplan_drake.params import MAX_TIME_LIMIT, BatteryParams, PlannerParams
 from eaplan_drake.planning.nlp import MakeSolver
 from eaplan_drake.planning.prediction import (
     ChoosePathParameter,
@@ -327,8 +327,10 @@ class Planner:
         """Grid points of c2, best objective first (ties: larger parameters)."""
         self.candidate_power = power[order_idx]
         self._lowest_candidate = int(np.flatnonzero(np.all(self.candidates == self.lower, 1))[0])
-        # Rollout length: t_b is only needed up to the longest remaining coverage time.
-        self._num_half = 2 * max(N, math.ceil(self.coverage_time.times[1] / h) + 1) + 1
+        # Rollout length: t_b is only needed up to the longest remaining coverage time, and never
+        # beyond the longest flight a scenario may ask for (bounds the rows in memory).
+        longest = min(float(self.coverage_time.times[1]), MAX_TIME_LIMIT)
+        self._num_half = 2 * max(N, math.ceil(longest / h) + 1) + 1
         self._rows_period = None
         self._rows = None
         self.num_variables = self.program.variables.size
