@@ -44,19 +44,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from eaplan_drake.energy.fourier import EstimatePeriodWithConfidence  # noqa: E402
-from eaplan_drake.logfit.fit import (  # noqa: E402
-    BASELINES,
-    NOISE_CRITERIA_TEXT,
-    ORDERS,
-    FitPowerLog,
-    SyntheticPower,
-)
+from eaplan_drake.logfit.fit import ORDERS, FitPowerLog, SyntheticPower  # noqa: E402
 from eaplan_drake.logfit.powerlog import (  # noqa: E402
     REFERENCE_ENV,
     ReadPeriodLog,
     ReadPowerLog,
     ReferenceDirectory,
 )
+from eaplan_drake.logfit.result import NOISE_CRITERIA_TEXT  # noqa: E402
+from eaplan_drake.logfit.scores import BASELINES  # noqa: E402
 
 
 def Synthetic(seed: int, tau: float, sigma: float, noise: float = 0.5, duration: float = 1200.0):

@@ -291,15 +291,10 @@ def _StudyReport(args) -> int:
 
 def _Fit(args) -> int:
     from eaplan_drake.files import AtomicWrite
-    from eaplan_drake.logfit.fit import (
-        FRAGMENT_ORDERS,
-        NOISE_CRITERIA_TEXT,
-        SCENARIO_MAX_ORDER,
-        FitPowerLog,
-        FormatScores,
-        PlotLogFit,
-    )
+    from eaplan_drake.logfit.fit import FRAGMENT_ORDERS, FitPowerLog, PlotLogFit
     from eaplan_drake.logfit.powerlog import PowerLogError, ReadPeriodLog, ReadPowerLog
+    from eaplan_drake.logfit.result import NOISE_CRITERIA_TEXT, SCENARIO_MAX_ORDER
+    from eaplan_drake.logfit.scores import FormatScores
 
     if args.period is not None and args.period_log:
         print("eaplan-drake fit: give either --period or --period-log, not both", file=sys.stderr)

@@ -12,29 +12,24 @@ from eaplan_drake.cli import main
 from eaplan_drake.energy.estimator import KalmanPredict, KalmanUpdate
 from eaplan_drake.energy.fourier import AugmentedOrder, DiscreteEnergyMatrices, OutputMatrix
 from eaplan_drake.loading import LayerScenario, LoadNamedScenario, LoadScenario, ShippedNames
-from eaplan_drake.logfit.fit import (
-    HORIZONS_SUFFIX,
-    NOISE_CRITERIA,
-    NOISE_CRITERIA_TEXT,
-    BaselinePrediction,
+from eaplan_drake.logfit.filtering import (
     FilterPowerSeries,
-    FitLevelNoise,
-    FitNoise,
-    FitPowerLog,
-    FitPowerModel,
     HorizonSteps,
-    InnovationLogLikelihood,
-    LikelihoodScaledNoise,
-    MultiStepError,
     NoiseParameters,
     PeriodInForce,
     PeriodSeries,
-    PowerModelFit,
     PredictAhead,
-    ScorePredictions,
     SteadyStateCovariance,
-    SyntheticPower,
     UniformPowerSeries,
+)
+from eaplan_drake.logfit.fit import FitPowerLog, FitPowerModel, SyntheticPower
+from eaplan_drake.logfit.noise import (
+    NOISE_CRITERIA,
+    FitLevelNoise,
+    FitNoise,
+    InnovationLogLikelihood,
+    LikelihoodScaledNoise,
+    MultiStepError,
 )
 from eaplan_drake.logfit.powerlog import (
     PowerLogError,
@@ -42,6 +37,8 @@ from eaplan_drake.logfit.powerlog import (
     ReadPowerLog,
     ReferenceDirectory,
 )
+from eaplan_drake.logfit.result import HORIZONS_SUFFIX, NOISE_CRITERIA_TEXT, PowerModelFit
+from eaplan_drake.logfit.scores import BaselinePrediction, ScorePredictions
 
 DATA = resources.files("eaplan_drake") / "data"
 T = 46.0
@@ -504,7 +501,7 @@ def test_cli_fit_bad_period_log_is_one_line(tmp_path, capsys):
 
 
 def test_model_names():
-    from eaplan_drake.logfit.fit import ModelName
+    from eaplan_drake.logfit.result import ModelName
 
     ar = NoiseParameters(1.0, 1e-6, 0.0, 12.0, 0.1)
     assert ModelName(4, ar) == "r=4+AR(1)"
@@ -626,7 +623,8 @@ def test_fit_orders_stay_within_what_a_scenario_accepts(tmp_path, capsys):
     """fit.yaml must load: `fit` tries orders up to energy_model.order's largest (20), refuses
     --orders above it, and ScenarioFragment refuses such an order."""
     from eaplan_drake.errors import ScenarioError
-    from eaplan_drake.logfit.fit import FRAGMENT_ORDERS, ORDERS, SCENARIO_MAX_ORDER
+    from eaplan_drake.logfit.fit import FRAGMENT_ORDERS, ORDERS
+    from eaplan_drake.logfit.result import SCENARIO_MAX_ORDER
 
     assert LoadScenario(data=f"energy_model: {{order: {SCENARIO_MAX_ORDER}}}")
     with pytest.raises(ScenarioError, match="energy_model.order"):
