@@ -27,6 +27,7 @@ import numpy as np
 
 __all__ = [
     "AUTHORS_CONTROL_STEP",
+    "PAPARAZZI_TIME_STEP",
     "REFERENCE_ENV",
     "PowerLog",
     "PowerLogError",
@@ -129,6 +130,108 @@ def _Parse(path: Path, lines: list[str], first: int, columns: int) -> np.ndarray
     return data[:row]
 
 
+def _ReadLines(path: Path) -> tuple[list[str], int]:
+    """The lines of ``path`` and the index of its first non-blank one."""
+    try:
+        lines = path.read_text(encoding="utf-8-sig").splitlines()
+    except (OSError, UnicodeDecodeError) as e:
+        raise PowerLogError(f"{path}: cannot read: {e}") from None
+    first = next((i for i, s in enumerate(lines) if s.strip()), None)
+    if first is None:
+        raise PowerLogError(f"{path}: empty file")
+    return lines, first
+
+
+def _IsNumber(cell: str) -> bool:
+    try:
+        float(cell)
+        return True
+    except ValueError:
+        return False
+
+
+def _HeaderColumns(path: Path, header: list[str], given, time_step) -> tuple:
+    """(time, power, voltage, current) column indices of a log with a header (None: absent)
+    from the ``given`` names or indices, else by the recognised names."""
+    time_column, power_column, voltage_column, current_column = given
+    it = _Index(header, time_column, list(_TIME_NAMES), path, "time", "--time-column")
+    if it is None and time_step is None:
+        raise PowerLogError(
+            f"{path}:1: no time column (recognised: {', '.join(_TIME_NAMES)}); give "
+            f"--time-column or --time-step"
+        )
+    ip = _Index(header, power_column, _POWER_NAMES, path, "power", "--power-column")
+    if ip is not None:
+        return it, ip, None, None
+    iv = _Index(header, voltage_column, _VOLTAGE_NAMES, path, "voltage", "--voltage-column")
+    ic = _Index(header, current_column, _CURRENT_NAMES, path, "current", "--current-column")
+    if iv is None or ic is None:
+        raise PowerLogError(
+            f"{path}:1: no power column, nor voltage and current columns (recognised: "
+            f"{', '.join(_POWER_NAMES)}; {', '.join(_VOLTAGE_NAMES[:3])} × "
+            f"{', '.join(_CURRENT_NAMES[:3])}); give --power-column or "
+            f"--voltage-column and --current-column"
+        )
+    return it, None, iv, ic
+
+
+def _NumberedColumns(path: Path, names: list[str], given, time_step) -> tuple:
+    """(time, power, voltage, current) column indices of a log without a header: the one
+    column is power; several must be named by 0-based index (``given``)."""
+    if len(names) == 1:
+        return None, 0, None, None
+    time_column, power_column, voltage_column, current_column = given
+    it = _Index(names, time_column, (), path, "time", "--time-column")
+    ip = _Index(names, power_column, (), path, "power", "--power-column")
+    iv = _Index(names, voltage_column, (), path, "voltage", "--voltage-column")
+    ic = _Index(names, current_column, (), path, "current", "--current-column")
+    missing = []
+    if it is None and time_step is None:
+        missing.append("--time-column (or --time-step)")
+    if ip is None and (iv is None or ic is None):
+        missing.append("--power-column (or --voltage-column and --current-column)")
+    if missing:
+        raise PowerLogError(
+            f"{path}: no header and {len(names)} columns: name them by 0-based index: "
+            f"{' and '.join(missing)}"
+        )
+    return it, ip, iv, ic
+
+
+def _TimeAndPower(data, names, columns, time_scale, time_step):
+    """(t [s], y [W], how they were read) from the parsed rows and the column indices."""
+    it, ip, iv, ic = columns
+    if ip is not None:
+        y = data[:, ip]
+        what = f"power = {names[ip]}"
+    else:
+        y = data[:, iv] * data[:, ic]
+        what = f"power = {names[iv]} × {names[ic]}"
+    if it is not None:
+        name = names[it].strip().lower()
+        scale = time_scale if time_scale is not None else _TIME_NAMES.get(name, 1.0)
+        t = data[:, it] * float(scale)
+        what = f"time = {names[it]} (× {scale:g} s), {what}"
+    else:
+        t = float(time_step) * np.arange(data.shape[0])
+        what = f"time = row × {time_step:g} s, {what}"
+    return t, y, what
+
+
+def _UsableRows(path: Path, t, y, first_row_line: int):
+    """(t, y) without the rows of a non-finite time or power; at least 16 rows, increasing
+    times (else the error names the line, the first data row being ``first_row_line``)."""
+    keep = np.isfinite(t) & np.isfinite(y)
+    t, y = t[keep], y[keep]
+    if t.size < 16:
+        raise PowerLogError(f"{path}: {t.size} usable rows, need at least 16")
+    bad = np.flatnonzero(np.diff(t) <= 0.0)
+    if bad.size:
+        line = first_row_line + int(np.flatnonzero(keep)[bad[0] + 1])
+        raise PowerLogError(f"{path}:{line}: time does not increase ({t[bad[0] + 1]:g} s)")
+    return t, y
+
+
 def ReadPowerLog(
     path,
     time_column=None,
@@ -150,94 +253,25 @@ def ReadPowerLog(
     Rows with a non-finite time or power are dropped; the rest must have increasing times.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as e:
-        raise PowerLogError(f"{path}: cannot read: {e}") from None
-    lines = text.splitlines()
-    first = next((i for i, s in enumerate(lines) if s.strip()), None)
-    if first is None:
-        raise PowerLogError(f"{path}: empty file")
+    lines, first = _ReadLines(path)
     head = [c.strip() for c in lines[first].split(",")]
-
-    def numeric(cell: str) -> bool:
-        try:
-            float(cell)
-            return True
-        except ValueError:
-            return False
-
-    has_header = not all(numeric(c) for c in head if c)
+    has_header = not all(_IsNumber(c) for c in head if c)
     if time_step is not None and not (math.isfinite(time_step) and time_step > 0.0):
         raise PowerLogError(f"--time-step: must be finite and > 0 [s], got {time_step!r}")
+    given = (time_column, power_column, voltage_column, current_column)
     if has_header:
         data = _Parse(path, lines, first + 1, len(head))
         if data.shape[0] == 0:
             raise PowerLogError(f"{path}: a header but no data rows")
-        it = _Index(head, time_column, list(_TIME_NAMES), path, "time", "--time-column")
-        if it is None and time_step is None:
-            raise PowerLogError(
-                f"{path}:1: no time column (recognised: {', '.join(_TIME_NAMES)}); give "
-                f"--time-column or --time-step"
-            )
-        ip = _Index(head, power_column, _POWER_NAMES, path, "power", "--power-column")
-        iv = ic = None
-        if ip is None:
-            iv = _Index(head, voltage_column, _VOLTAGE_NAMES, path, "voltage", "--voltage-column")
-            ic = _Index(head, current_column, _CURRENT_NAMES, path, "current", "--current-column")
-            if iv is None or ic is None:
-                raise PowerLogError(
-                    f"{path}:1: no power column, nor voltage and current columns (recognised: "
-                    f"{', '.join(_POWER_NAMES)}; {', '.join(_VOLTAGE_NAMES[:3])} × "
-                    f"{', '.join(_CURRENT_NAMES[:3])}); give --power-column or "
-                    f"--voltage-column and --current-column"
-                )
-        names = head
+        names, columns = head, _HeaderColumns(path, head, given, time_step)
     else:
         data = _Parse(path, lines, first, len(head))
         names = [f"column {j}" for j in range(len(head))]
-        if len(head) == 1:
-            it, ip, iv, ic = None, 0, None, None
-            if time_step is None:
-                time_step = PAPARAZZI_TIME_STEP
-        else:
-            it = _Index(names, time_column, (), path, "time", "--time-column")
-            ip = _Index(names, power_column, (), path, "power", "--power-column")
-            iv = _Index(names, voltage_column, (), path, "voltage", "--voltage-column")
-            ic = _Index(names, current_column, (), path, "current", "--current-column")
-            missing = []
-            if it is None and time_step is None:
-                missing.append("--time-column (or --time-step)")
-            if ip is None and (iv is None or ic is None):
-                missing.append("--power-column (or --voltage-column and --current-column)")
-            if missing:
-                raise PowerLogError(
-                    f"{path}: no header and {len(head)} columns: name them by 0-based index: "
-                    f"{' and '.join(missing)}"
-                )
-    if ip is not None:
-        y = data[:, ip]
-        what = f"power = {names[ip]}"
-    else:
-        y = data[:, iv] * data[:, ic]
-        what = f"power = {names[iv]} × {names[ic]}"
-    if it is not None:
-        name = names[it].strip().lower()
-        scale = time_scale if time_scale is not None else _TIME_NAMES.get(name, 1.0)
-        t = data[:, it] * float(scale)
-        what = f"time = {names[it]} (× {scale:g} s), {what}"
-    else:
-        t = float(time_step) * np.arange(data.shape[0])
-        what = f"time = row × {time_step:g} s, {what}"
-    keep = np.isfinite(t) & np.isfinite(y)
-    t, y = t[keep], y[keep]
-    if t.size < 16:
-        raise PowerLogError(f"{path}: {t.size} usable rows, need at least 16")
-    bad = np.flatnonzero(np.diff(t) <= 0.0)
-    if bad.size:
-        row = int(np.flatnonzero(keep)[bad[0] + 1])
-        line = first + row + (2 if has_header else 1)
-        raise PowerLogError(f"{path}:{line}: time does not increase ({t[bad[0] + 1]:g} s)")
+        columns = _NumberedColumns(path, names, given, time_step)
+        if len(head) == 1 and time_step is None:
+            time_step = PAPARAZZI_TIME_STEP
+    t, y, what = _TimeAndPower(data, names, columns, time_scale, time_step)
+    t, y = _UsableRows(path, t, y, first + (2 if has_header else 1))
     layout = "header" if has_header else "no header"
     return PowerLog(times=t - t[0], power=y, source=f"{path.name} ({layout}): {what}")
 
@@ -261,13 +295,7 @@ def ReadPeriodLog(path, step: float = AUTHORS_CONTROL_STEP) -> tuple[np.ndarray,
             f"period log step (fit --period-log-step) must be a finite number > 0 s, got {step!r}"
         )
     path = Path(path)
-    try:
-        lines = path.read_text(encoding="utf-8-sig").splitlines()
-    except (OSError, UnicodeDecodeError) as e:
-        raise PowerLogError(f"{path}: cannot read: {e}") from None
-    first = next((i for i, s in enumerate(lines) if s.strip()), None)
-    if first is None:
-        raise PowerLogError(f"{path}: empty file")
+    lines, first = _ReadLines(path)
     data = _Parse(path, lines, first, 2)
     line = [i + 1 for i in range(first, len(lines)) if lines[i].strip()]  # 1-based, per row
     bad = np.flatnonzero(~np.all(np.isfinite(data), axis=1) | (data[:, 1] <= 0.0))
