@@ -44,7 +44,7 @@ from eaplan_drake.flight.sequencer import StageSequencer
 from eaplan_drake.params import EstimatorParams, Scenario
 from eaplan_drake.planning.planner import PlannerPolicy, PlannerScheduler
 from eaplan_drake.planning.policies import MakePolicy
-from eaplan_drake.resolve import ResolvedScenario, ResolveScenario, StartParameters
+from eaplan_drake.resolve import Derive, ResolvedScenario, ResolveScenario
 
 __all__ = [
     "LOGGED_SIGNALS",
@@ -59,6 +59,7 @@ __all__ = [
     "GuidedAircraft",
     "LoggedSignals",
     "MakeEaplanDiagram",
+    "MakeResolvedPolicy",
     "MakeScenarioPolicy",
 ]
 
@@ -431,11 +432,11 @@ def MakeEaplanDiagram(
     ``scenario.simulation.log_period``, 0 disables the loggers.
     """
     resolved = scenario if isinstance(scenario, ResolvedScenario) else ResolveScenario(scenario)
-    scenario, table = resolved.scenario, resolved.table
-    plan = resolved.plan if plan_source is None else plan_source
+    if plan_source is not None:
+        resolved = Derive(resolved.scenario, resolved.table, plan_source)
+    scenario, table, plan, start = resolved.scenario, resolved.table, resolved.plan, resolved.start
     if policy is None:
-        policy = MakeScenarioPolicy(scenario, table, plan)
-    start = StartParameters(scenario, table)
+        policy = MakeResolvedPolicy(resolved)
     builder = DiagramBuilder()
     aircraft = AddGuidedAircraft(builder, scenario, plan, initial_path_parameter=start[0])
     energy = AddEnergyLoop(
@@ -474,17 +475,21 @@ def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
     ``table`` (:class:`~eaplan_drake.energy.computation.ComputationTable`) and ``plan`` (the plan
     source): the Eq. 10 line through t(c1) at the bounds in the scenario's wind, and the c1 grid
     of the sequencer's ``remaining_time``."""
-    w = scenario.wind.Vector()
+    return MakeResolvedPolicy(Derive(scenario, table, plan))
+
+
+def MakeResolvedPolicy(resolved: ResolvedScenario) -> PlannerPolicy:
+    """The policy a resolved scenario names, from its derived values
+    (:class:`~eaplan_drake.resolve.ResolvedScenario`)."""
+    s = resolved.scenario
     return MakePolicy(
-        scenario.planner,
-        table,
-        scenario.estimator.ModelOrder(scenario.energy_model.order),
-        scenario.battery,
-        coverage_time_bounds=plan.CoverageTimeBounds(
-            scenario.planner.path_parameter_bounds, scenario.vehicle.airspeed, w
-        ),
-        path_parameter_grid=scenario.planner.PathParameterGrid(),
-        integer=scenario.computation.integer,
+        s.planner,
+        resolved.table,
+        resolved.model_order,
+        s.battery,
+        coverage_time_bounds=resolved.coverage_time_bounds,
+        path_parameter_grid=resolved.path_parameter_grid,
+        integer=s.computation.integer,
     )
 
 

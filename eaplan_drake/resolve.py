@@ -34,6 +34,7 @@ from eaplan_drake.params import MAX_SURVEY_LINES, Scenario
 from eaplan_drake.registry import PLAN_SOURCES
 
 __all__ = [
+    "Derive",
     "MAX_PLAN_STAGES",
     "MakePlanSource",
     "PlanSourceName",
@@ -60,11 +61,22 @@ MIN_TRIGGER_OFFSET = 1.0
 
 @dc.dataclass(frozen=True)
 class ResolvedScenario:
-    """A validated scenario with its loaded computation table and plan source."""
+    """A validated scenario with its loaded computation table and plan source, and the values
+    the systems derive from it, computed once (the compile step of a flight)."""
 
     scenario: Scenario
     table: ComputationTable
     plan: PlanSource
+    start: tuple[float, list[float]] = (0.0, [])
+    """(c1 [m²], c2) flown until the planner first acts (:func:`StartParameters`)."""
+    model_order: object = 0
+    """The estimator's model order: r, or an ``AugmentedOrder`` with the aperiodic state."""
+    path_parameter_grid: np.ndarray = dc.field(default_factory=lambda: np.zeros(0))
+    """The M values of c1 [m²] of the sequencer's ``remaining_time`` and the mpc's grid."""
+    wind: np.ndarray = dc.field(default_factory=lambda: np.zeros(2))
+    """The constant wind w [m/s] (east, north)."""
+    coverage_time_bounds: tuple[float, float] = (0.0, 0.0)
+    """(t(c̲1), t(c̄1)) [s] of the plan in the wind: the Eq. 10 line of the paper's policies."""
 
 
 def TriggerDistance(path: PathFunction, point) -> float:
@@ -112,7 +124,26 @@ def ResolveScenario(scenario: Scenario, base_dir: str | Path | None = None) -> R
     table = _Table(scenario)
     plan = _Plan(scenario, table)
     _CheckPlan(scenario, plan)
-    return ResolvedScenario(scenario=scenario, table=table, plan=plan)
+    return Derive(scenario, table, plan)
+
+
+def Derive(scenario: Scenario, table: ComputationTable, plan: PlanSource) -> ResolvedScenario:
+    """The :class:`ResolvedScenario` of a checked scenario, table and plan (its derived values
+    computed once); ``plan`` may be any plan source (a caller's own)."""
+    wind = scenario.wind.Vector()
+    planner = scenario.planner
+    return ResolvedScenario(
+        scenario=scenario,
+        table=table,
+        plan=plan,
+        start=StartParameters(scenario, table),
+        model_order=scenario.estimator.ModelOrder(scenario.energy_model.order),
+        path_parameter_grid=planner.PathParameterGrid(),
+        wind=wind,
+        coverage_time_bounds=tuple(
+            plan.CoverageTimeBounds(planner.path_parameter_bounds, scenario.vehicle.airspeed, wind)
+        ),
+    )
 
 
 def _Table(scenario: Scenario) -> ComputationTable:

@@ -71,10 +71,11 @@ def Simulate(
     that update's time and ``final_soc`` the battery's SoC after it.
     """
     _CheckSimulateArguments(scenario, progress, progress_interval, policy)
-    if policy is None and scenario.Validate().planner.policy == "hindsight":
+    resolved = ResolveScenario(scenario)  # validated once, every file loaded, values derived
+    if policy is None and scenario.planner.policy == "hindsight":
         return FlyHindsight(scenario, progress, progress_interval)
     wall_start = time.perf_counter()
-    diagram = MakeEaplanDiagram(ResolveScenario(scenario), policy=policy)
+    diagram = MakeEaplanDiagram(resolved, policy=policy)
     simulator = Simulator(diagram)
     ResetIntegratorFromFlags(
         simulator, scenario.simulation.integrator, scenario.simulation.max_step
