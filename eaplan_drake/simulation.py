@@ -81,8 +81,6 @@ def Simulate(
         simulator, scenario.simulation.integrator, scenario.simulation.max_step
     )
     context = simulator.get_mutable_context()
-    soc_port = diagram.GetOutputPort("soc")
-    reserve = scenario.battery.reserve_soc
     try:
         simulator.Initialize()
         status = _AdvanceInChunks(
@@ -93,8 +91,19 @@ def Simulate(
     wall_time = time.perf_counter() - wall_start
 
     log = _CollectLog(diagram, context)
+    log.summary = _Summary(log, diagram, context, scenario, status)
+    log.summary["wall_time"] = wall_time
+    log.summary["realtime_factor"] = log.summary["duration"] / wall_time if wall_time > 0 else None
+    return log
+
+
+def _Summary(log: FlightLog, diagram, context, scenario: Scenario, status: str) -> dict:
+    """The summary of a flown log: status and end, SoC, the quality and the paper's metric P
+    (:func:`~eaplan_drake.flightlog.QualityMetric`) with the bounds they were measured by, and
+    the planner's statistics."""
+    reserve = scenario.battery.reserve_soc
     final_time = context.get_time()
-    final_soc = float(soc_port.Eval(context)[0])
+    final_soc = float(diagram.GetOutputPort("soc").Eval(context)[0])
     planner = diagram.GetSubsystemByName("planner")
     stats = planner.statistics() if hasattr(planner, "statistics") else {}
     table_lo = np.asarray(planner.table.lower, dtype=float)
@@ -111,9 +120,8 @@ def Simulate(
         completed,
     )
     remaining = float(log["coverage_remaining"][-1, 0]) if len(log.times) else 1.0
-    feasible = log["mission_feasible"][:, 0]
-    infeasible_at = np.flatnonzero(feasible < 0.5)
-    log.summary = {
+    infeasible_at = np.flatnonzero(log["mission_feasible"][:, 0] < 0.5)
+    return {
         "scenario": scenario.name,
         "policy": stats.get("policy", scenario.planner.policy),
         "status": status,
@@ -132,10 +140,7 @@ def Simulate(
         "metric": metric,
         "first_infeasible_time": float(log.times[infeasible_at[0]]) if infeasible_at.size else None,
         "planner": JsonSafe(stats),
-        "wall_time": wall_time,
-        "realtime_factor": final_time / wall_time if wall_time > 0 else None,
     }
-    return log
 
 
 NUMERICS_CHECK_PERIOD = 1.0
