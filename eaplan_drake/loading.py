@@ -8,15 +8,18 @@ other value, lists included, replaces: ``yaml_load_typed(defaults=…)``'s rule)
 layer. :func:`ShippedFile` is the one place that turns "a shipped name or a YAML path" into a
 file, for scenarios and studies alike, and :func:`LoadNamedScenario` loads either.
 
-The YAML follows 1.2 where 1.1 surprises: ``1e3`` is a number, a duplicate key is an error.
-A misspelt key, a wrong type or a value out of range raises
-:class:`~eaplan_drake.params.ScenarioError` naming the key (``file:line:col`` for syntax). Nothing
-here imports pydrake until a scenario is actually loaded, so the command line can check a name
-first.
+The YAML follows 1.2 (its core schema) where 1.1 surprises: ``1e3`` is a number; only ``true``
+and ``false`` (``True``, ``FALSE``, …) are booleans, so ``no``, ``on``, ``yes``, ``off`` are
+strings (and a string where a boolean belongs is an error naming the key); a date is a string;
+a duplicate key is an error. The scenario is built from that data by the same walker that checks
+it (:func:`~eaplan_drake.params._Walk`), with ``yaml_load_typed``'s merge rule, so that the
+checks and the values never read the text differently. A misspelt key, a wrong type or a value
+out of range raises :class:`~eaplan_drake.params.ScenarioError` naming the key
+(``file:line:col`` for syntax). Nothing here imports pydrake until a scenario is validated, so
+the command line can check a name first.
 """
 
 import copy
-import dataclasses as dc
 import re
 import typing
 from importlib import resources
@@ -26,7 +29,7 @@ import yaml
 
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import ReadTextFile
-from eaplan_drake.params import Scenario, _check
+from eaplan_drake.params import Scenario, _Dataclasses, _Hints, _UnknownKeyMessage, _Walk
 
 __all__ = [
     "LayerScenario",
@@ -37,49 +40,6 @@ __all__ = [
     "ShippedFile",
     "ShippedNames",
 ]
-
-
-def _check_keys(schema, data, key: str) -> None:
-    """Walks raw YAML data against the dataclass schema so that unknown keys are named in full."""
-    if not dc.is_dataclass(schema) or not isinstance(data, dict):
-        return
-    hints = typing.get_type_hints(schema)
-    for name, value in data.items():
-        full = f"{key}.{name}" if key else str(name)
-        if name not in hints:
-            known = ", ".join(sorted(hints))
-            raise ScenarioError(f"{full}: unknown key (known keys here: {known})")
-        _check_type(hints[name], value, full)
-
-
-def _check_type(hint, value, key: str) -> None:
-    """Checks one YAML value against a field's type hint, naming the key on a mismatch."""
-    if dc.is_dataclass(hint):
-        if not isinstance(value, dict):
-            raise ScenarioError(f"{key}: expected a mapping of keys, got {value!r}")
-        _check_keys(hint, value, key)
-    elif typing.get_origin(hint) is list:
-        if not isinstance(value, list):
-            raise ScenarioError(f"{key}: expected a list, got {value!r}")
-        (item,) = typing.get_args(hint)
-        for i, v in enumerate(value):
-            _check_type(item, v, f"{key}[{i}]")
-    elif hint is bool:
-        _check(isinstance(value, bool), key, f"expected true or false, got {value!r}")
-    elif hint is int:
-        _check(
-            isinstance(value, int) and not isinstance(value, bool),
-            key,
-            f"expected an integer, got {value!r}",
-        )
-    elif hint is float:
-        _check(
-            isinstance(value, int | float) and not isinstance(value, bool),
-            key,
-            f"expected a number, got {value!r}",
-        )
-    elif hint is str:
-        _check(isinstance(value, str), key, f"expected a string, got {value!r}")
 
 
 def LoadScenario(
@@ -142,8 +102,10 @@ def LayerScenario(scenario: Scenario, overrides: typing.Sequence[str]) -> Scenar
 
 
 class _StrictYamlLoader(yaml.SafeLoader):
-    """PyYAML's safe loader with YAML 1.2's floats (``1e3``, ``5e-1`` are numbers, not strings)
-    and duplicate keys an error (YAML 1.2 forbids them; PyYAML keeps the last)."""
+    """PyYAML's safe loader with YAML 1.2's core schema where 1.1 surprises: ``1e3``, ``5e-1``
+    are numbers, not strings; only ``true``/``false`` (``True``, ``TRUE``, …) are booleans, so
+    ``no``, ``on``, ``yes``, ``off`` are strings (a country code, a table name); a date is a
+    string; a duplicate key is an error (YAML 1.2 forbids them; PyYAML keeps the last)."""
 
     def construct_mapping(self, node, deep=False):
         if isinstance(node, yaml.MappingNode):
@@ -171,6 +133,14 @@ _StrictYamlLoader.add_implicit_resolver(
     re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
     list("-+0123456789"),
 )
+_NOT_CORE = ("tag:yaml.org,2002:bool", "tag:yaml.org,2002:timestamp")
+_StrictYamlLoader.yaml_implicit_resolvers = {  # the loader's own copy (made by the call above)
+    first: [(tag, regexp) for tag, regexp in resolvers if tag not in _NOT_CORE]
+    for first, resolvers in _StrictYamlLoader.yaml_implicit_resolvers.items()
+}
+_StrictYamlLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF")
+)
 
 
 def _YamlData(data: str, source: str):
@@ -188,21 +158,17 @@ def _YamlData(data: str, source: str):
 
 
 def _LoadLayer(data: str, defaults: Scenario, where: str, source: str = "") -> Scenario:
-    """``defaults`` with the YAML ``data`` loaded over it (keys checked first)."""
-    from pydrake.common.yaml import yaml_load_typed
-
+    """``defaults`` with the YAML ``data`` loaded over it: a copy built from the strict loader's
+    data, checked key by key (:func:`~eaplan_drake.params._Walk`: mappings merge, lists and
+    scalars replace, integers in float fields become floats, as ``yaml_load_typed`` does)."""
     raw = _YamlData(data, source or where.rstrip(": ") or "<yaml>")
     if raw is None:
         raw = {}
     if not isinstance(raw, dict):
         raise ScenarioError(f"{where}the scenario must be a mapping of keys at the top level")
-    _check_keys(Scenario, raw, "")
     if not raw:
         return defaults
-    try:
-        return yaml_load_typed(schema=Scenario, data=data, defaults=defaults)
-    except (RuntimeError, ValueError, TypeError) as e:
-        raise ScenarioError(f"{where}wrong type: {' '.join(str(e).split())}") from None
+    return _Walk(Scenario, raw, "", raw=True, current=copy.deepcopy(defaults))
 
 
 def OverrideFromAssignment(assignment: str) -> str:
@@ -215,14 +181,15 @@ def OverrideFromAssignment(assignment: str) -> str:
         raise ScenarioError(
             f"--set {assignment!r}: expected KEY.PATH=VALUE (e.g. battery.capacity=2.5)"
         )
-    schema = Scenario
+    schemas = [Scenario]  # the dataclasses the key so far may be (several for a Union)
     for depth, name in enumerate(parts):
-        hints = typing.get_type_hints(schema) if dc.is_dataclass(schema) else {}
-        if name not in hints:
-            full = ".".join(parts[: depth + 1])
-            known = ", ".join(sorted(hints)) if hints else "none: not a mapping"
-            raise ScenarioError(f"{full}: unknown key (known keys here: {known})")
-        schema = hints[name]
+        full = ".".join(parts[: depth + 1])
+        owners = [s for s in schemas if name in _Hints(s)]
+        if not owners:
+            if not schemas:
+                raise ScenarioError(f"{full}: unknown key (known keys here: none: not a mapping)")
+            raise ScenarioError(_UnknownKeyMessage(schemas[0], name, full))
+        schemas = [c for owner in owners for c in _Dataclasses(_Hints(owner)[name])]
     lines = [f"{'  ' * d}{name}:" for d, name in enumerate(parts)]
     lines[-1] += " " + (value.strip() or "''")
     return "\n".join(lines) + "\n"

@@ -9,9 +9,12 @@ value outside its physical range raises :class:`ScenarioError` whose message nam
 """
 
 import dataclasses as dc
+import difflib
+import functools
 import math
 import numbers
 import re
+import types
 import typing
 
 import numpy as np
@@ -163,11 +166,99 @@ def _bounds(value, key: str) -> None:
     _check(lo <= hi, key, f"min must be <= max, got [{lo:g}, {hi:g}]")
 
 
+# -- the fields of a params dataclass, and nothing else -----------------------------------------
+
+
+class _Params:
+    """Base of every params dataclass: setting an attribute that is not a field raises
+    :class:`AttributeError` naming the key (``scenario.planner.enabled = False`` would otherwise
+    be accepted and ignored). Construction, ``dc.replace``, ``copy.deepcopy``, pickling and
+    pydrake's ``yaml_load_typed`` only ever set fields."""
+
+    __slots__ = ()
+
+    def __setattr__(self, name: str, value) -> None:
+        if name not in _FieldNames(type(self)):
+            raise AttributeError(_UnknownFieldMessage(type(self), name), name=name, obj=self)
+        object.__setattr__(self, name, value)
+
+
+@functools.cache
+def _FieldNames(cls) -> frozenset[str]:
+    return frozenset(f.name for f in dc.fields(cls))
+
+
+@functools.cache
+def _Hints(cls) -> dict:
+    """The type hints of a dataclass's fields, by name (cached; do not modify)."""
+    names = [f.name for f in dc.fields(cls)]
+    hints = typing.get_type_hints(cls)
+    return {name: hints[name] for name in names}
+
+
+def _RemovedFieldNote(cls, name: str) -> str:
+    """What replaced a removed key, or ""."""
+    return _REMOVED_FIELDS.get((cls.__name__, name), "")
+
+
+def _Suggestion(cls, name) -> str:
+    """`` (did you mean 'x'?)`` for the nearest field of ``cls``, or ""."""
+    close = difflib.get_close_matches(str(name), sorted(_FieldNames(cls)), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _UnknownFieldMessage(cls, name: str) -> str:
+    """One line for setting the non-field ``name`` on a ``cls`` from Python."""
+    prefix = _ClassKeys().get(cls)
+    full = f"{cls.__name__}.{name}" if prefix is None else (f"{prefix}.{name}" if prefix else name)
+    note, close = _RemovedFieldNote(cls, name), _Suggestion(cls, name)
+    fields = "" if close or note else f" (fields: {', '.join(sorted(_FieldNames(cls)))})"
+    return f"{full}: {cls.__name__} has no field {name!r}{close}{fields}" + (
+        f"; {note}" if note else ""
+    )
+
+
+def _UnknownKeyMessage(cls, name, full: str) -> str:
+    """One line for the unknown key ``full`` (last part ``name``) of a ``cls`` in YAML."""
+    known = ", ".join(sorted(_FieldNames(cls)))
+    note = _RemovedFieldNote(cls, name)
+    close = _Suggestion(cls, name).strip(" ()")
+    return (
+        f"{full}: unknown key (known keys here: {known})"
+        + (f"; {close}" if close else "")
+        + (f"; {note}" if note else "")
+    )
+
+
+@functools.cache
+def _ClassKeys() -> dict:
+    """The key of each params class in the scenario tree (``PlannerParams`` → ``planner``,
+    ``BatteryFault`` → ``battery.faults[i]``, ``Scenario`` → ""); a class found at two keys maps
+    to None (its messages then name the class)."""
+    keys: dict = {}
+
+    def visit(hint, key: str) -> None:
+        if dc.is_dataclass(hint):
+            if hint in keys:
+                keys[hint] = None if keys[hint] != key else key
+                return
+            keys[hint] = key
+            for name, sub in _Hints(hint).items():
+                visit(sub, f"{key}.{name}" if key else name)
+        elif typing.get_origin(hint) is list:
+            visit(typing.get_args(hint)[0], f"{key}[i]")
+        for member in _Members(hint):
+            visit(member, key)
+
+    visit(Scenario, "")
+    return keys
+
+
 # -- the tree -----------------------------------------------------------------------------------
 
 
 @dc.dataclass
-class MotionPowerParams:
+class MotionPowerParams(_Params):
     """Propulsion (motion) power of the fixed-wing aircraft, in W.
 
     Load-factor model: P_m = level_power · (1 − induced_fraction + induced_fraction · n²), with
@@ -187,7 +278,7 @@ class MotionPowerParams:
 
 
 @dc.dataclass
-class VehicleParams:
+class VehicleParams(_Params):
     """Fixed-wing unicycle ṗ = v_a [cos ψ, sin ψ] + w, ψ̇ = u with \\|u\\| ≤ g tan(φ_max) / v_a."""
 
     airspeed: float = 15.0
@@ -209,7 +300,7 @@ class VehicleParams:
 
 
 @dc.dataclass
-class WindParams:
+class WindParams(_Params):
     """Constant wind w = speed · [cos θ_w, sin θ_w]; θ_w is where the wind blows *towards*."""
 
     speed: float = 5.0
@@ -233,7 +324,7 @@ def WindVector(speed: float, direction_deg: float) -> np.ndarray:
 
 
 @dc.dataclass
-class CoverageParams:
+class CoverageParams(_Params):
     """Zamboni-like coverage of a convex polygon (paper 003 Sec. IV-A, Alg. 1)."""
 
     polygon: list[list[float]] = dc.field(
@@ -278,7 +369,7 @@ class CoverageParams:
 
 
 @dc.dataclass
-class GuidanceParams:
+class GuidanceParams(_Params):
     """Guiding vector field gains (paper 001 Eq. 8) for unit-gradient path functions.
 
     Tuned at 15 m/s airspeed in 5 m/s wind (tests/test_guidance.py): from 100 m off a line or a
@@ -299,7 +390,7 @@ class GuidanceParams:
 
 
 @dc.dataclass
-class ComputationParams:
+class ComputationParams(_Params):
     """Computation power g(c2) from a measured powprofiler table (paper 003 Sec. III-B)."""
 
     table: str = "pednet_jetson_nano"
@@ -321,7 +412,7 @@ class ComputationParams:
 
 
 @dc.dataclass
-class EnergyModelParams:
+class EnergyModelParams(_Params):
     """Periodic energy model (paper 003 Eqs. 3–12), scaled form y = C q with q in W."""
 
     order: int = 3
@@ -346,7 +437,7 @@ class EnergyModelParams:
 
 
 @dc.dataclass
-class BatteryFault:
+class BatteryFault(_Params):
     """A sudden loss of state of charge at a given time."""
 
     time: float = 0.0
@@ -356,7 +447,7 @@ class BatteryFault:
 
 
 @dc.dataclass
-class BatteryParams:
+class BatteryParams(_Params):
     """Rint equivalent circuit (paper 003 Lemma III.3): ḃ = −k_b I(y) / Q_c."""
 
     voltage: float = 14.8
@@ -396,7 +487,7 @@ class BatteryParams:
 
 
 @dc.dataclass
-class SensorParams:
+class SensorParams(_Params):
     """Power sensor Υ = P_motion + P_computation + noise, sampled periodically."""
 
     rate: float = 100.0
@@ -434,7 +525,7 @@ class SensorParams:
 
 
 @dc.dataclass
-class EstimatorParams:
+class EstimatorParams(_Params):
     """Discrete Kalman filter on q (paper 003 Alg. 2 l. 28–29), Joseph-form update."""
 
     rate: float = 100.0
@@ -493,7 +584,7 @@ class EstimatorParams:
 
 
 @dc.dataclass
-class FaultModelParams:
+class FaultModelParams(_Params):
     """What the planner believes about battery faults (``planner.fault_model``), beside the
     scripted ``battery.faults`` (what happens in a flight): SoC drops arrive as a Poisson process
     of rate λ = ``rate`` [1/s], with i.i.d. sizes [-] from ``sizes``. The default covers the
@@ -550,7 +641,7 @@ RESERVE_RULES = ("risk", "fixed")
 
 
 @dc.dataclass
-class PlannerParams:
+class PlannerParams(_Params):
     """Planner-scheduler: which policy decides c1 and c2, and its parameters.
 
     ``policy`` selects (see :mod:`eaplan_drake.planning.policies`): ``mpc`` (default: the
@@ -725,8 +816,17 @@ class PlannerParams:
         return np.linspace(lo, hi, int(self.path_parameter_grid_size))
 
 
+_REMOVED_FIELDS = {
+    ("PlannerParams", "enabled"): (
+        "'enabled' was removed: the planner's switch is 'policy' (policy 'static' holds the "
+        "initial parameters, as enabled false did)"
+    ),
+}
+"""Keys that were removed, by (class name, key): what replaced them."""
+
+
 @dc.dataclass
-class SimulationParams:
+class SimulationParams(_Params):
     """How long and how finely to simulate."""
 
     time_limit: float = 1500.0
@@ -772,7 +872,7 @@ class SimulationParams:
 
 
 @dc.dataclass
-class Scenario:
+class Scenario(_Params):
     """One flight: every parameter of the closed loop."""
 
     name: str = "reference"
@@ -806,7 +906,7 @@ class Scenario:
         numbers that are numbers; numpy integers become ``int``), then ranges, then the
         cross-field constraints that need no file (those that do: :func:`ResolveScenario
         <eaplan_drake.resolve.ResolveScenario>`)."""
-        _CheckTree(self, Scenario, "")
+        _Walk(Scenario, self, "", raw=False)
         _check(
             isinstance(self.name, str) and bool(_NAME.fullmatch(self.name)),
             "name",
@@ -914,48 +1014,135 @@ def _CheckRates(scenario: Scenario) -> None:
         )
 
 
-def _CheckTree(obj, schema, key: str) -> None:
-    """Checks a params object against its dataclass type hints, naming the key on a mismatch;
-    numpy integers in integer fields become ``int``, tuples and arrays in list fields lists."""
-    if not isinstance(obj, schema):
-        what = "the scenario" if not key else key
-        raise ScenarioError(
-            f"{what}: expected a {schema.__name__}, got {type(obj).__name__} {_Short(obj)}"
-        )
-    for name, hint in typing.get_type_hints(schema).items():
-        full = f"{key}.{name}" if key else name
-        value = getattr(obj, name)
-        fixed = _CheckValue(hint, value, full)
-        if fixed is not value:
-            setattr(obj, name, fixed)
+# -- the one type walker: YAML data and params objects against the type hints ------------------
 
 
-def _CheckValue(hint, value, key: str):
+def _Members(hint) -> tuple:
+    """The members of a Union hint (``X | None``, ``typing.Optional[X]``, ``A | B``), else ()."""
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        return typing.get_args(hint)
+    return ()
+
+
+def _Dataclasses(hint) -> list:
+    """The dataclasses a value of ``hint`` may be: [hint], its dataclass members, or []."""
     if dc.is_dataclass(hint):
-        _CheckTree(value, hint, key)
+        return [hint]
+    return [m for m in _Members(hint) if dc.is_dataclass(m)]
+
+
+def _Walk(hint, value, key: str, *, raw: bool, current=None):
+    """Checks ``value`` against the type hint ``hint``; raises :class:`ScenarioError` naming
+    ``key`` on a mismatch. Returns the value to keep (the same object when nothing changes).
+
+    ``raw=False`` walks a params object (:meth:`Scenario.Validate`): a params dataclass where one
+    belongs, numpy integers in integer fields become ``int``, tuples and arrays in list fields
+    lists. ``raw=True`` walks YAML data (:mod:`eaplan_drake.loading`) and builds the value: a
+    mapping where a dataclass belongs, merged key by key into ``current`` (the value it layers
+    over) or a new default instance; an unknown key is named in full; lists replace; integers in
+    float fields become floats (as pydrake's ``yaml_load_typed``). Both support ``X | None`` and
+    a Union of dataclasses (raw: the first whose fields hold every key given)."""
+    if _Members(hint):
+        return _WalkUnion(hint, value, key, raw=raw, current=current)
+    if dc.is_dataclass(hint):
+        if raw:
+            if not isinstance(value, dict):
+                raise ScenarioError(f"{key}: expected a mapping of keys, got {_Short(value)}")
+            target = current if isinstance(current, hint) else hint()
+            hints = _Hints(hint)
+            for name, v in value.items():
+                full = f"{key}.{name}" if key else str(name)
+                if name not in hints:
+                    raise ScenarioError(_UnknownKeyMessage(hint, name, full))
+                sub = getattr(target, name)
+                setattr(target, name, _Walk(hints[name], v, full, raw=True, current=sub))
+            return target
+        if not isinstance(value, hint):
+            what = "the scenario" if not key else key
+            raise ScenarioError(
+                f"{what}: expected a {hint.__name__}, got {type(value).__name__} {_Short(value)}"
+            )
+        for name, sub_hint in _Hints(hint).items():
+            v = getattr(value, name)
+            fixed = _Walk(sub_hint, v, f"{key}.{name}" if key else name, raw=False)
+            if fixed is not v:
+                setattr(value, name, fixed)
         return value
     if typing.get_origin(hint) is list:
-        if isinstance(value, tuple | np.ndarray):
+        if not raw and isinstance(value, tuple | np.ndarray):
             value = list(np.asarray(value).tolist() if isinstance(value, np.ndarray) else value)
         if not isinstance(value, list):
             raise ScenarioError(f"{key}: expected a list, got {_Short(value)}")
         (item,) = typing.get_args(hint)
-        fixed = [_CheckValue(item, v, f"{key}[{i}]") for i, v in enumerate(value)]
+        fixed = [_Walk(item, v, f"{key}[{i}]", raw=raw) for i, v in enumerate(value)]
+        if raw:
+            return fixed  # a new list: a list in a layer replaces the one below
         return value if all(a is b for a, b in zip(fixed, value, strict=True)) else fixed
-    if hint is bool:
-        _check(isinstance(value, bool), key, f"expected true or false, got {_Short(value)}")
-    elif hint is int:
-        _check(_is_int(value), key, f"expected an integer, got {_Short(value)}")
-        return value if type(value) is int else int(value)
-    elif hint is float:
+    if hint in _SCALARS:
         _check(
-            isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_),
-            key,
-            f"expected a number, got {_Short(value)}",
+            _Fits(hint, value, raw), key, f"expected {_Expected(hint, raw)}, got {_Short(value)}"
         )
-    elif hint is str:
-        _check(isinstance(value, str), key, f"expected a string, got {_Short(value)}")
+        if hint is int and type(value) is not int:
+            return int(value)
+        if hint is float and raw and type(value) is int:
+            return float(value)
     return value
+
+
+_SCALARS = (bool, int, float, str)
+
+
+def _Fits(hint, value, raw: bool) -> bool:
+    """Whether ``value`` is of the kind ``hint`` names (without looking inside)."""
+    if hint is type(None):
+        return value is None
+    if dc.is_dataclass(hint):
+        return isinstance(value, dict) if raw else isinstance(value, hint)
+    if typing.get_origin(hint) is list:
+        return isinstance(value, list) or (not raw and isinstance(value, tuple | np.ndarray))
+    if hint is bool:
+        return isinstance(value, bool)
+    if hint is int:
+        return isinstance(value, int) and not isinstance(value, bool) if raw else _is_int(value)
+    if hint is float:
+        return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+    if hint is str:
+        return isinstance(value, str)
+    return isinstance(value, typing.get_origin(hint) or hint)
+
+
+def _Expected(hint, raw: bool) -> str:
+    """What a value of ``hint`` is, for a message."""
+    if hint is type(None):
+        return "null" if raw else "None"
+    if dc.is_dataclass(hint):
+        return "a mapping of keys" if raw else f"a {hint.__name__}"
+    if typing.get_origin(hint) is list:
+        return "a list"
+    names = {bool: "true or false", int: "an integer", float: "a number", str: "a string"}
+    return names.get(hint, f"a {getattr(hint, '__name__', hint)}")
+
+
+def _WalkUnion(hint, value, key: str, *, raw: bool, current=None):
+    """:func:`_Walk` for a Union: the member of the value's exact type, else the first it fits
+    (raw mappings: the first dataclass whose fields hold every key, preferring the type of
+    ``current``)."""
+    members = _Members(hint)
+    if value is None and type(None) in members:
+        return None
+    fitting = [m for m in members if _Fits(m, value, raw)]
+    if raw and isinstance(value, dict):
+        classes = [m for m in fitting if dc.is_dataclass(m)]
+        classes.sort(key=lambda m: not isinstance(current, m))  # stable: current's type first
+        holding = [m for m in classes if set(value) <= _FieldNames(m)]
+        fitting = holding or classes[:1]  # none holds every key: the first names the unknown one
+    exact = [m for m in fitting if m in _SCALARS and type(value) is m]
+    if not (exact or fitting):
+        expected = " or ".join(dict.fromkeys(_Expected(m, raw) for m in members))
+        raise ScenarioError(f"{key}: expected {expected}, got {_Short(value)}")
+    member = (exact or fitting)[0]
+    sub = current if dc.is_dataclass(member) and isinstance(current, member) else None
+    return _Walk(member, value, key, raw=raw, current=sub)
 
 
 def _Short(value) -> str:

@@ -138,6 +138,15 @@ CASES = [
     ("yaml", "unknown key", {}, "battery: {capasity: 3}\n", "battery.capasity"),
     ("yaml", "wrong type", {}, "battery: {capacity: three}\n", "battery.capacity"),
     ("yaml", "string for a bool", {}, "computation: {integer: 'false'}\n", "computation.integer"),
+    (
+        "yaml",
+        "yes for a bool",
+        {},
+        "sensor: {averaging: yes}\n",
+        "sensor.averaging: expected true or false, got 'yes'",
+    ),
+    ("yaml", "table named on", {}, "computation: {table: on}\n", "/on': no such file"),
+    ("yaml", "removed planner switch", {}, "planner: {enabled: false}\n", "switch is 'policy'"),
     # -- upper bounds on work ------------------------------------------------------------------
     ("bounds", "sensor rate", {}, "sensor: {rate: 1e6}\n", "sensor.rate"),
     ("bounds", "estimator rate", {}, "estimator: {rate: 1e6}\n", "estimator.rate"),
@@ -349,6 +358,24 @@ def test_cli_bad_rate_combination_from_set_is_one_line(assignment, expected, tmp
     assert status == 2, err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and expected in lines[0], err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "assignment, expected",
+    [
+        ("computation.integer=off", "computation.integer: expected true or false, got 'off'"),
+        ("planner.enabled=false", "planner.enabled: unknown key"),
+    ],
+)
+def test_cli_bad_value_from_set_is_one_line(assignment, expected, tmp_path, capsys):
+    out = tmp_path / "out"
+    status = _Bounded(cli_main, ["simulate", "plan_i", "--set", assignment, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and expected in lines[0], err
+    assert "array(" not in err and "Traceback" not in err
     assert not out.exists()
 
 

@@ -133,3 +133,83 @@ def test_random_seed_derives_the_sensor_seed():
     assert a != b and a == LoadScenario(data="random_seed: 1").SensorSeed()
     with pytest.raises(ScenarioError, match="^random_seed: must be an integer >= -1"):
         LoadScenario(data="random_seed: -2")
+
+
+# -- the params dataclasses have their fields and nothing else --------------------------------
+
+
+def _ParamsClasses():
+    import dataclasses as dc
+    import inspect
+
+    from eaplan_drake import params
+
+    return [
+        cls
+        for _, cls in inspect.getmembers(params, inspect.isclass)
+        if dc.is_dataclass(cls) and cls.__module__ == params.__name__
+    ]
+
+
+def test_every_params_dataclass_refuses_an_unknown_attribute():
+    classes = _ParamsClasses()
+    assert len(classes) == 15  # every @dc.dataclass of params.py
+    for cls in classes:
+        obj = cls()
+        with pytest.raises(AttributeError) as e:
+            obj.not_a_field = 1
+        message = str(e.value)
+        assert f"{cls.__name__} has no field 'not_a_field'" in message and "\n" not in message
+        assert not hasattr(obj, "not_a_field")
+
+
+def test_unknown_attribute_names_the_full_key_and_the_nearest_field():
+    s = Scenario()
+    with pytest.raises(AttributeError) as e:
+        s.planner.enabled = False  # the old switch, replaced by policy
+    message = str(e.value)
+    assert message.startswith("planner.enabled: PlannerParams has no field 'enabled'"), message
+    assert "the planner's switch is 'policy'" in message and "'static'" in message
+    with pytest.raises(AttributeError, match=r"^battery\.capcity: .*did you mean 'capacity'\?"):
+        s.battery.capcity = 3.0
+    with pytest.raises(AttributeError, match=r"^vehicle\.motion_power\.level_pwr: .*'level_power'"):
+        s.vehicle.motion_power.level_pwr = 20.0
+    with pytest.raises(AttributeError, match=r"^planner\.fault_model\.rat: .*'rate'"):
+        s.planner.fault_model.rat = 0.01
+    with pytest.raises(AttributeError, match=r"^nmae: Scenario has no field 'nmae'.*'name'"):
+        s.nmae = "x"
+    from eaplan_drake.params import BatteryFault
+
+    with pytest.raises(AttributeError, match=r"^battery\.faults\[i\]\.tim: .*'time'"):
+        BatteryFault().tim = 1.0
+    assert s == Scenario()  # nothing was set
+
+
+def test_fields_still_set_copy_pickle_replace_and_load():
+    import copy
+    import dataclasses as dc
+    import pickle
+
+    from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.params import BatteryFault, PlannerParams
+
+    s = LoadNamedScenario("plan_i")
+    s.planner.policy = "static"
+    s.battery.faults = [BatteryFault(time=10.0, soc_drop=0.05)]
+    deep = copy.deepcopy(s)
+    assert deep == s and deep.battery is not s.battery
+    deep.battery.capacity = 1.0
+    assert s.battery.capacity != 1.0
+    back = pickle.loads(pickle.dumps(s, protocol=pickle.HIGHEST_PROTOCOL))
+    assert back == s and yaml_dump_typed(back) == yaml_dump_typed(s)
+    with pytest.raises(AttributeError, match="planner.enabled"):
+        back.planner.enabled = True  # still guarded after a round trip
+    replaced = dc.replace(s.planner, policy="mpc", horizon=4)
+    assert isinstance(replaced, PlannerParams) and (replaced.policy, replaced.horizon) == ("mpc", 4)
+    with pytest.raises(TypeError):
+        dc.replace(s.planner, enabled=False)
+    loaded = yaml_load_typed(schema=Scenario, data="planner: {policy: greedy}\n", defaults=s)
+    assert loaded.planner.policy == "greedy" and loaded.battery == s.battery
+    assert loaded.Validate() is loaded
