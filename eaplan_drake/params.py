@@ -100,6 +100,10 @@ MAX_HORIZON = 100
 MAX_VARIANCE = 1e6
 """Largest estimator variance (initial_covariance, process_noise, measurement_noise) [W²]."""
 MAX_POLYGON_VERTICES = 100
+MAX_COORDINATE = 1e7
+"""Largest |x|, |y| of vehicle.initial_position [m] (the guidance overflows near 1e100)."""
+MAX_GUIDANCE_GAIN = 1e3
+"""Largest guidance.k_e [1/m] (the reference is 0.05; 1e300 overflows the guidance)."""
 MAX_SURVEY_LINES = 2000
 """Largest width of the field across the lines / swath_spacing [-] (a 2000-line plan has ≈ 8000
 stages and takes ≈ 1 s to build)."""
@@ -161,9 +165,9 @@ def _at_most(value, key: str, hi: float, unit: str, why: str) -> None:
     _check(v <= hi, key, f"must be <= {hi:g} {unit} ({why}), got {v:g}")
 
 
-def _bounds(value, key: str) -> None:
-    lo, hi = _vector(value, key, 2)
-    _check(lo <= hi, key, f"min must be <= max, got [{lo:g}, {hi:g}]")
+def _Shown(values) -> str:
+    """Numbers as a user writes them: ``[0, -1000]``, not ``array([0., -1000.])``."""
+    return "[" + ", ".join(f"{float(v):g}" for v in values) + "]"
 
 
 # -- the fields of a params dataclass, and nothing else -----------------------------------------
@@ -294,7 +298,12 @@ class VehicleParams(_Params):
     def Validate(self, key: str = "vehicle") -> None:
         _positive(self.airspeed, f"{key}.airspeed")
         _in_range(self.max_bank_angle_deg, f"{key}.max_bank_angle_deg", 1e-3, 80.0)
-        _vector(self.initial_position, f"{key}.initial_position", 2)
+        for i, v in enumerate(_vector(self.initial_position, f"{key}.initial_position", 2)):
+            _check(
+                abs(v) <= MAX_COORDINATE,
+                f"{key}.initial_position[{i}]",
+                f"must be in [-{MAX_COORDINATE:g}, {MAX_COORDINATE:g}] m (numerics), got {v:g}",
+            )
         _finite(self.initial_heading_deg, f"{key}.initial_heading_deg")
         self.motion_power.Validate(f"{key}.motion_power")
 
@@ -386,6 +395,7 @@ class GuidanceParams(_Params):
 
     def Validate(self, key: str = "guidance") -> None:
         _positive(self.k_e, f"{key}.k_e")
+        _at_most(self.k_e, f"{key}.k_e", MAX_GUIDANCE_GAIN, "1/m", "numerics")
         _positive(self.k_d, f"{key}.k_d")
 
 
@@ -600,7 +610,7 @@ class FaultModelParams(_Params):
     size_bounds: list[float] = dc.field(default_factory=lambda: [0.0, 0.15])
     """[a, b] of uniform sizes [-], 0 <= a < b <= 1."""
     size_mean: float = 0.05
-    """Mean of exponential sizes [-], in (0, 1]."""
+    """Mean of exponential sizes [-], in [1e-6, 1) (sizes above 1 empty the battery)."""
     size_values: list[float] = dc.field(default_factory=list)
     """The recorded sizes of an empirical distribution [-], each in (0, 1], at most 1000."""
 
@@ -618,7 +628,12 @@ class FaultModelParams(_Params):
             f"{key}.size_bounds",
             f"need 0 <= a < b <= 1 [-], got [{a:g}, {b:g}]",
         )
-        _in_range(self.size_mean, f"{key}.size_mean", 1e-6, 1.0)
+        mean = _finite(self.size_mean, f"{key}.size_mean")
+        _check(
+            1e-6 <= mean < 1.0,
+            f"{key}.size_mean",
+            f"must be in [1e-06, 1) [-] (the mean of exponential sizes), got {mean:g}",
+        )
         _check(
             len(self.size_values) <= 1000,
             f"{key}.size_values",
@@ -632,6 +647,22 @@ class FaultModelParams(_Params):
             "an empirical size distribution needs at least one value",
         )
 
+
+def _CheckPathParameterBounds(bounds, key: str, c1_min: float | None = None) -> None:
+    """[lo, hi] finite with c1_min = r_min² − r² <= lo < hi <= 0 [m²] (``c1_min`` when the
+    coverage is known), so that the planner's grid of c1 values is ascending."""
+    lo, hi = _vector(bounds, key, 2)
+    at = "" if c1_min is None else f" = {c1_min:g}"
+    _check(
+        lo < hi and hi <= C1_MAX_TOLERANCE and (c1_min is None or lo >= c1_min - 1e-6),
+        key,
+        f"need c1_min = r_min² − r²{at} <= lo < hi <= 0 [m²] (r2 = sqrt(r² + c1) may not "
+        f"exceed r), got {_Shown(bounds)}",
+    )
+
+
+C1_MAX_TOLERANCE = 1e-9
+"""Largest accepted upper bound of planner.path_parameter_bounds [m²] (0 up to rounding)."""
 
 FAULT_SIZE_DISTRIBUTIONS = ("uniform", "exponential", "empirical")
 """Values of ``planner.fault_model.sizes``."""
@@ -670,7 +701,7 @@ class PlannerParams(_Params):
     ``computation.initial_parameters``, as the paper does; pinned in the reference scenarios).
     A static policy always flies the initial parameters."""
     path_parameter_bounds: list[float] = dc.field(default_factory=lambda: [-1000.0, 0.0])
-    """[c1_min, c1_max] [m²]; c1_min must be >= r_min² − r²."""
+    """[c1_min, c1_max] [m²], r_min² − r² <= c1_min < c1_max <= 0."""
     initial_path_parameters: list[float] = dc.field(default_factory=lambda: [0.0])
     """c1(0) [m²]."""
     path_parameter_grid_size: int = 21
@@ -748,7 +779,7 @@ class PlannerParams(_Params):
             f"{key}.warmup_parameters",
             f'must be "lowest" or "initial", got {self.warmup_parameters!r}',
         )
-        _bounds(self.path_parameter_bounds, f"{key}.path_parameter_bounds")
+        _CheckPathParameterBounds(self.path_parameter_bounds, f"{key}.path_parameter_bounds")
         _vector(self.initial_path_parameters, f"{key}.initial_path_parameters", 1)
         lo, hi = self.path_parameter_bounds
         for i, c in enumerate(self.initial_path_parameters):
@@ -954,17 +985,9 @@ class Scenario(_Params):
             f"must be below vehicle.airspeed = {self.vehicle.airspeed:g} m/s, "
             f"got {self.wind.speed:g}",
         )
-        lo = self.planner.path_parameter_bounds[0]
         c1_min = self.coverage.min_turning_radius**2 - self.coverage.turning_radius**2
-        _check(
-            lo >= c1_min - 1e-6,
-            "planner.path_parameter_bounds",
-            f"c1_min = {lo:g} is below r_min² − r² = {c1_min:g}",
-        )
-        _check(
-            self.planner.path_parameter_bounds[1] <= 1e-9,
-            "planner.path_parameter_bounds",
-            "c1_max must be <= 0 (r2 = sqrt(r² + c1) may not exceed r)",
+        _CheckPathParameterBounds(
+            self.planner.path_parameter_bounds, "planner.path_parameter_bounds", c1_min
         )
         return self
 

@@ -244,6 +244,28 @@ CASES = [
     ),
     ("cross", "circle in too much wind", {}, "wind: {speed: 14}\n", "coverage.min_turning_radius"),
     ("cross", "wind above airspeed", {}, "wind: {speed: 20}\n", "wind.speed"),
+    (
+        "cross",
+        "equal c1 bounds",
+        {},
+        "planner: {path_parameter_bounds: [0, 0]}\n",
+        "planner.path_parameter_bounds: need c1_min = r_min² − r² <= lo < hi <= 0 [m²] "
+        "(r2 = sqrt(r² + c1) may not exceed r), got [0, 0]",
+    ),
+    (
+        "cross",
+        "c1 bounds below r_min",
+        {},
+        "planner: {path_parameter_bounds: [-5000, 0]}\n",
+        "planner.path_parameter_bounds: need c1_min = r_min² − r² = -1000 <= lo",
+    ),
+    (
+        "cross",
+        "exponential fault sizes of mean 1",
+        {},
+        "planner: {fault_model: {sizes: exponential, size_mean: 1}}\n",
+        "planner.fault_model.size_mean",
+    ),
     # -- numerics ------------------------------------------------------------------------------
     (
         "numerics",
@@ -260,6 +282,14 @@ CASES = [
         "estimator.process_noise",
     ),
     ("numerics", "infinite capacity", {}, "battery: {capacity: .inf}\n", "battery.capacity"),
+    ("numerics", "huge guidance gain", {}, "guidance: {k_e: 1e300}\n", "guidance.k_e"),
+    (
+        "numerics",
+        "far initial position",
+        {},
+        "vehicle: {initial_position: [1e100, 0]}\n",
+        "vehicle.initial_position[0]",
+    ),
     # -- output --------------------------------------------------------------------------------
     ("output", "name with ..", {}, "name: ../../x\n", "name"),
     ("output", "absolute name", {}, "name: /tmp/x\n", "name"),
@@ -365,6 +395,7 @@ def test_cli_bad_rate_combination_from_set_is_one_line(assignment, expected, tmp
     "assignment, expected",
     [
         ("computation.integer=off", "computation.integer: expected true or false, got 'off'"),
+        ("planner.path_parameter_bounds=[-10, -10]", "planner.path_parameter_bounds: need"),
         ("planner.enabled=false", "planner.enabled: unknown key"),
     ],
 )

@@ -213,3 +213,68 @@ def test_fields_still_set_copy_pickle_replace_and_load():
     loaded = yaml_load_typed(schema=Scenario, data="planner: {policy: greedy}\n", defaults=s)
     assert loaded.planner.policy == "greedy" and loaded.battery == s.battery
     assert loaded.Validate() is loaded
+
+
+# -- errors that name the user's key ---------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "bounds, shown",
+    [
+        ([0, 0], "[0, 0]"),
+        ([-1000, -1000], "[-1000, -1000]"),
+        ([-500, -600], "[-500, -600]"),
+        ([-100, 10], "[-100, 10]"),
+    ],
+)
+def test_path_parameter_bounds_need_lo_below_hi_at_most_0(bounds, shown):
+    import numpy as np
+
+    text = f"planner: {{path_parameter_bounds: {bounds}, initial_path_parameters: [{bounds[0]}]}}"
+    with pytest.raises(ScenarioError) as e:
+        LoadScenario(data=text)
+    message = str(e.value)
+    assert message.startswith(
+        "planner.path_parameter_bounds: need c1_min = r_min² − r² <= lo < hi <= 0 [m²]"
+    ), message
+    assert message.endswith(f"got {shown}") and "array" not in message
+    s = Scenario()  # the same from Python, a numpy array as the user may give it
+    s.planner.path_parameter_bounds = np.array(bounds, dtype=float)
+    s.planner.initial_path_parameters = [float(bounds[0])]
+    with pytest.raises(ScenarioError) as e:
+        s.Validate()
+    assert str(e.value).endswith(f"got {shown}") and "array" not in str(e.value)
+
+
+def test_path_parameter_bounds_below_r_min_name_c1_min():
+    with pytest.raises(ScenarioError) as e:
+        LoadScenario(data="planner: {path_parameter_bounds: [-5000, 0]}")
+    assert str(e.value) == (
+        "planner.path_parameter_bounds: need c1_min = r_min² − r² = -1000 <= lo < hi <= 0 [m²] "
+        "(r2 = sqrt(r² + c1) may not exceed r), got [-5000, 0]"
+    )
+    s = LoadScenario(
+        data="planner: {path_parameter_bounds: [-1000, -1e-3], initial_path_parameters: [-1]}"
+    )
+    assert s.planner.path_parameter_bounds == [-1000.0, -1e-3]  # narrower bounds stay valid
+
+
+@pytest.mark.parametrize(
+    "yaml, message",
+    [
+        ("guidance: {k_e: 1e300}", "guidance.k_e: must be <= 1000 1/m (numerics), got 1e+300"),
+        (
+            "vehicle: {initial_position: [0, -1e100]}",
+            "vehicle.initial_position[1]: must be in [-1e+07, 1e+07] m (numerics), got -1e+100",
+        ),
+        (
+            "planner: {fault_model: {sizes: exponential, size_mean: 1}}",
+            "planner.fault_model.size_mean: must be in [1e-06, 1) [-] (the mean of exponential "
+            "sizes), got 1",
+        ),
+    ],
+)
+def test_values_that_failed_only_in_flight_are_named_at_validation(yaml, message):
+    with pytest.raises(ScenarioError) as e:
+        LoadScenario(data=yaml)
+    assert str(e.value) == message
