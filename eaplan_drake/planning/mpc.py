@@ -201,7 +201,7 @@ class MissionProblem:
         if planner.reserve == "risk":
             self._fault_model = FaultModelFromParams(planner.fault_model)
             self._risk = float(planner.risk)
-            self._risk_times = self._risk_margins = np.zeros(1)
+            self._risk_times = self._risk_margins = self._risk_slopes = np.zeros(1)
 
     # -- per-step data -------------------------------------------------------------------------
 
@@ -266,6 +266,7 @@ class MissionProblem:
         # a plan no margin keeps within ε needs more than the lowest plan has: just above m_0
         # (not +inf), which excludes it as surely and keeps the NLP's constraint gentle
         self._risk_margins = np.minimum(margins, max(m_0, 0.0) + UNREACHABLE_MARGIN)
+        self._risk_slopes = _PchipSlopes(times, self._risk_margins)
 
     def SetObservation(self, observation) -> None:
         """:meth:`SetState` from a :class:`~eaplan_drake.planning.planner.PlannerObservation`."""
@@ -287,7 +288,7 @@ class MissionProblem:
         if not self._faults_counted:
             return np.zeros_like(t)
         if self._fault_model is not None:
-            return np.interp(t, self._risk_times, self._risk_margins)
+            return _Pchip(self._risk_times, self._risk_margins, self._risk_slopes, t)[0]
         if self._fault_time <= 0.0:
             return np.full_like(t, self._fault_reserve)
         return self._fault_reserve * np.minimum(1.0, np.maximum(t, 0.0) / self._fault_time)
@@ -311,11 +312,9 @@ class MissionProblem:
         if not self._faults_counted:
             return slope
         if self._fault_model is not None:
-            times, margins = self._risk_times, self._risk_margins
-            k = int(np.clip(np.searchsorted(times, t, side="right"), 1, times.size - 1))
-            if times.size > 1 and times[0] <= t < times[-1]:
-                slope += (margins[k] - margins[k - 1]) / (times[k] - times[k - 1])
-            return slope
+            return slope + float(
+                _Pchip(self._risk_times, self._risk_margins, self._risk_slopes, t)[1]
+            )
         if 0.0 < self._fault_time and t < self._fault_time:
             slope += self._fault_reserve / self._fault_time
         return slope
@@ -563,6 +562,26 @@ def _LowerHull(x: np.ndarray, y: np.ndarray) -> np.ndarray:
                 break
         hull.append(k)
     return np.array(hull, dtype=int)
+
+
+def _Pchip(x: np.ndarray, y: np.ndarray, d: np.ndarray, t) -> tuple[np.ndarray, np.ndarray]:
+    """(value, slope) of the cubic Hermite interpolant of (x, y) with node slopes ``d`` at ``t``
+    (an array or a scalar; constant beyond the ends, and exactly y at the nodes)."""
+    t = np.asarray(t, dtype=float)
+    if x.size == 1:
+        return np.full_like(t, y[0]), np.zeros_like(t)
+    tc = np.clip(t, x[0], x[-1])
+    i = np.clip(np.searchsorted(x, tc, side="right") - 1, 0, x.size - 2)
+    h = x[i + 1] - x[i]
+    s = (tc - x[i]) / h
+    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+    value = h00 * y[i] + h10 * h * d[i] + h01 * y[i + 1] + h11 * h * d[i + 1]
+    dh00, dh10 = (6 * s**2 - 6 * s) / h, (3 * s**2 - 4 * s + 1) / h
+    dh01, dh11 = (-6 * s**2 + 6 * s) / h, (3 * s**2 - 2 * s) / h
+    slope = dh00 * y[i] + dh10 * h * d[i] + dh01 * y[i + 1] + dh11 * h * d[i + 1]
+    inside = (t >= x[0]) & (t <= x[-1])
+    return value, np.where(inside, slope, 0.0)
 
 
 def _PchipSlopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
