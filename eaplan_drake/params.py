@@ -734,6 +734,10 @@ class PlannerParams(_Params):
     """How the mpc policy holds SoC back for faults: ``fixed`` (``fault_reserve`` over
     ``fault_reserve_time``) or ``risk`` (the margin each plan needs so that its excess risk under
     ``fault_model`` is at most ``risk``; :mod:`eaplan_drake.planning.risk`)."""
+    after_drop: str = "replan"
+    """With ``reserve: risk``, what the mpc does once it sees a SoC drop (its SoC more than 0.01
+    below the one-step prediction): ``replan`` (keep deciding with the risk constraint) or
+    ``lowest`` (fly the lowest plan to the end: the fallback its excess risk assumes)."""
     risk: float = 0.05
     """ε, the largest excess risk of a decision with ``reserve: risk`` [-], in (0, 1): the
     probability, under ``fault_model``, that the mission fails although the lowest plan flown from
@@ -814,6 +818,11 @@ class PlannerParams(_Params):
             self.reserve in RESERVE_RULES,
             f"{key}.reserve",
             f"must be one of {', '.join(RESERVE_RULES)}, got {self.reserve!r}",
+        )
+        _check(
+            self.after_drop in ("replan", "lowest"),
+            f"{key}.after_drop",
+            f'must be "replan" or "lowest", got {self.after_drop!r}',
         )
         _in_range(self.risk, f"{key}.risk", 1e-6, 1.0 - 1e-6)
         self.fault_model.Validate(f"{key}.fault_model")

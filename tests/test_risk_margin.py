@@ -90,7 +90,9 @@ def test_the_required_margin_is_the_smallest_within_eps():
     thin = table.RequiredMargin(times[:3], 247.0, 0.03, 0.05)
     assert np.all(thin >= 0.0) and thin[0] <= 0.03
     assert np.all(table.RequiredMargin(times, 247.0, -0.01, 0.05) == 0.0)
-    assert np.isinf(RiskTable(MODELS["uniform"], 5000.0).RequiredMargin([5000.0], 100.0, 0.02, 0.01)[0])
+    assert np.isinf(
+        RiskTable(MODELS["uniform"], 5000.0).RequiredMargin([5000.0], 100.0, 0.02, 0.01)[0]
+    )
 
 
 def test_fault_model_params_build_each_size_distribution():
@@ -141,7 +143,11 @@ def test_every_risk_decision_keeps_its_excess_risk_within_eps(table, plan):
         m_p = d_end = pb.SocAt(float(table.power(d.computation_parameters)), pb.t_rem[j])
         m_p = d_end - pb.battery.reserve_soc - floor
         low = pb.Lowest()
-        m_0 = low.end_soc - pb.battery.reserve_soc - (pb.Margin(pb.t_rem[0]) - pb.FaultReserve(pb.t_rem[0]))
+        m_0 = (
+            low.end_soc
+            - pb.battery.reserve_soc
+            - (pb.Margin(pb.t_rem[0]) - pb.FaultReserve(pb.t_rem[0]))
+        )
         _, upper = ExcessRiskBounds(exact, pb.t_rem[j], m_p, pb.t_rem[0], m_0, cells=256)
         assert upper <= 0.05 + 0.01, (checked, upper)  # within ε up to the table's step
         checked += 1
@@ -186,3 +192,27 @@ def test_risk_nlp_first_move_equals_brute_force_on_random_feasible_states(table,
         )
     assert agree / total >= 0.99, f"{agree} of {total}"
     assert 0.0 < UNREACHABLE_MARGIN <= 0.05
+
+
+@pytest.mark.slow
+def test_after_a_drop_the_fallback_flies_the_lowest_plan_to_the_end():
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.simulation import Simulate
+
+    layers = [
+        "planner: {reserve: risk, after_drop: lowest, warmup: 20.0}",
+        "battery: {faults: [{time: 60.0, soc_drop: 0.05}]}",
+        "simulation: {time_limit: 120.0}",
+    ]
+    scenario = LoadNamedScenario("survey", layers)
+    log = Simulate(scenario)
+    after = log.times > 60.0 + 2.0 * scenario.planner.period
+    lo = scenario.planner.path_parameter_bounds[0]
+    assert np.all(log["path_parameters"][after, 0] == lo)
+    assert np.all(log["computation_parameters"][after, 0] == 2.0)
+    before = (log.times > 30.0) & (log.times < 60.0)
+    assert np.any(log["computation_parameters"][before, 0] > 2.0)  # it spent before the drop
+    replan = Simulate(
+        LoadNamedScenario("survey", [layers[0].replace("lowest", "replan")] + layers[1:])
+    )
+    assert np.any(replan["computation_parameters"][replan.times > 70.0, 0] > 2.0)

@@ -124,6 +124,12 @@ class PaperPolicy(PlannerPolicy):
         )
 
 
+FALLBACK_DROP = 0.01
+"""With ``planner.reserve: risk`` and ``after_drop: lowest``, a SoC more than this below the
+mpc's one-step prediction [-] is a drop: from then on the policy flies the lowest plan (the
+fallback its excess risk assumes, :mod:`eaplan_drake.planning.risk`)."""
+
+
 class MpcPolicy(PlannerPolicy):
     """The mission-feasible MPC (:mod:`eaplan_drake.planning.mpc`): the NLP relaxation solved with
     IPOPT
@@ -135,11 +141,41 @@ class MpcPolicy(PlannerPolicy):
     def __init__(self, problem: MissionProblem):
         self.problem = problem
         self.program = MissionProgram(problem)
+        p = problem.params
+        self._falls_back = p.reserve == "risk" and p.after_drop == "lowest"
 
     def InitialMemory(self) -> np.ndarray:
-        return np.zeros(self.program.variables.size)
+        memory = np.zeros(self.program.variables.size)
+        if self._falls_back:  # + [SoC predicted for the next step (-1: none), fallen back]
+            memory = np.concatenate((memory, [-1.0, 0.0]))
+        return memory
 
     def Plan(self, observation, memory) -> PlannerDecision:
+        if not self._falls_back:
+            return self._Plan(observation, memory)
+        o, pb = observation, self.problem
+        if not _Finite(o):
+            return _InvalidInput(pb, memory)
+        predicted, fallen = float(memory[-2]), bool(memory[-1] > 0.5)
+        fallen = fallen or (predicted >= 0.0 and o.soc < predicted - FALLBACK_DROP)
+        if fallen:
+            pb.SetObservation(o)
+            low = pb.Lowest()
+            d = PlannerDecision(
+                low.path_parameter,
+                low.computation_parameters,
+                memory[:-2],
+                True,
+                bool(low.feasible) or pb.NominallyFeasible(),
+                "after a SoC drop: the lowest plan to the end",
+            )
+        else:
+            d = self._Plan(o, memory[:-2])
+        power = float(pb.table.power(np.asarray(d.computation_parameters, dtype=float)))
+        d.memory = np.concatenate((d.memory, [float(pb.SocAt(power, pb.step)), float(fallen)]))
+        return d
+
+    def _Plan(self, observation, memory) -> PlannerDecision:
         o = observation
         pb = self.problem
         if not _Finite(o):
