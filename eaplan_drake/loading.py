@@ -38,6 +38,7 @@ __all__ = [
     "OverrideFromAssignment",
     "ResolveFilePaths",
     "ShippedFile",
+    "YamlData",
     "ShippedNames",
 ]
 
@@ -143,7 +144,7 @@ _StrictYamlLoader.add_implicit_resolver(
 )
 
 
-def _YamlData(data: str, source: str):
+def YamlData(data: str, source: str):
     """The raw YAML data of ``data`` (:class:`_StrictYamlLoader`); a syntax error is one line
     ``source:line:col: invalid YAML: problem``."""
     try:
@@ -161,7 +162,7 @@ def _LoadLayer(data: str, defaults: Scenario, where: str, source: str = "") -> S
     """``defaults`` with the YAML ``data`` loaded over it: a copy built from the strict loader's
     data, checked key by key (:func:`~eaplan_drake.params._Walk`: mappings merge, lists and
     scalars replace, integers in float fields become floats, as ``yaml_load_typed`` does)."""
-    raw = _YamlData(data, source or where.rstrip(": ") or "<yaml>")
+    raw = YamlData(data, source or where.rstrip(": ") or "<yaml>")
     if raw is None:
         raw = {}
     if not isinstance(raw, dict):

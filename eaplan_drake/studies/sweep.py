@@ -50,8 +50,13 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.errors import ScenarioError
-from eaplan_drake.files import JsonSafe
-from eaplan_drake.loading import LayerScenario, OverrideFromAssignment
+from eaplan_drake.files import JsonSafe, ReadTextFile
+from eaplan_drake.loading import (
+    MAX_SCENARIO_BYTES,
+    LayerScenario,
+    OverrideFromAssignment,
+    YamlData,
+)
 from eaplan_drake.params import MAX_FAULTS, BatteryFault, FaultModelParams, Scenario
 from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
 from eaplan_drake.studies.cluster import WAIT_FOR_WORKERS, ClusterError, MapOnDask, Wait
@@ -135,15 +140,10 @@ class Study:
 def LoadStudy(filename: str | Path) -> tuple[Study, Path]:
     """The :class:`Study` of a YAML file and the file's directory. ScenarioError (one line
     naming the file and the key) on bad input."""
-    from pydrake.common.yaml import yaml_load_data
-
     path = Path(filename)
     if not path.is_file():
         raise ScenarioError(f"{path}: no such study file")
-    try:
-        raw = yaml_load_data(data=path.read_text())
-    except Exception as e:
-        raise ScenarioError(f"{path}: invalid YAML: {' '.join(str(e).split())}") from None
+    raw = YamlData(ReadTextFile(path, MAX_SCENARIO_BYTES, ScenarioError), str(path))
     if not isinstance(raw, dict):
         raise ScenarioError(f"{path}: a study is a mapping of keys")
     fields = {f.name for f in dc.fields(Study)}
