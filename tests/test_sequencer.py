@@ -130,6 +130,7 @@ def test_initial_outputs(plan):
     assert seq.GetOutputPort("stage").Eval(ctx)[0] == 0.0
     assert seq.GetOutputPort("period").Eval(ctx)[0] == 40.0
     assert seq.GetOutputPort("coverage_remaining").Eval(ctx)[0] == 1.0
+    assert seq.SurveyRemaining(ctx) == 1.0
     assert seq.GetOutputPort("mission_complete").Eval(ctx)[0] == 0.0
     assert seq.PathParameter(ctx) == -1000.0
 
@@ -233,6 +234,7 @@ def test_a_far_overshoot_still_triggers_and_the_mission_completes(plan):
         assert done == (1.0 if i == len(stages) - 1 else 0.0)
         assert seq.GetOutputPort("stage").Eval(ctx)[0] == min(i + 1, len(stages) - 1)
     assert seq.GetOutputPort("coverage_remaining").Eval(ctx)[0] == 0.0
+    assert seq.SurveyRemaining(ctx) == 0.0
     # Completed: nothing changes any more, the last path stays active.
     _Step1(seq, ctx, (0.0, 0.0), 100.0, c1=0.0)
     assert seq.GetOutputPort("mission_complete").Eval(ctx)[0] == 1.0
@@ -255,6 +257,13 @@ def test_path_parameter_change_replans_after_the_current_stage(plan):
     fraction = seq.GetOutputPort("coverage_remaining").Eval(ctx)[0]
     assert fraction == pytest.approx(plan.RemainingFraction(stages, 3, (35.0, 20.0)), rel=1e-12)
     assert fraction < fraction_before
+    # The flown plan's fraction is the replanned plan's, at the new c1 (it jumps on re-plans).
+    replanned = plan.Replan(stages, 3, -1000.0)
+    survey = seq.SurveyRemaining(ctx)
+    assert survey == pytest.approx(plan.RemainingFraction(replanned, 3, (35.0, 20.0)), rel=1e-12)
+    assert survey * plan.SurveyLength(-1000.0) == pytest.approx(
+        sum(s.length for s in replanned[4:]) + replanned[3].length - 9.0, abs=1e-6
+    )
     # The next circle is the new r2.
     _Step1(seq, ctx, stages[3].trigger, 5.0, c1=-1000.0)
     nxt = PathFunction.FromDescriptor(seq.GetOutputPort("path").Eval(ctx))

@@ -32,11 +32,26 @@ t(c1) is the sum of the stage times at airspeed v_a (optionally in a constant wi
 v_g = wᵀt̂ + sqrt(v_a² − (w × t̂)²) along the course t̂), and the path scaling factors of Eq. 10
 are the linear fit ν c1 + τ through (c̲1, t(c̲1)) and (c̄1, t(c̄1)) (ρ = 1).
 
-The remaining survey *fraction* (what the sequencer outputs as ``coverage_remaining``) is the
-survey length still to fly divided by the survey length of the whole plan at the current c1 (the
-approach excluded): it falls from 1 to 0 along a flight, and fraction · t(c1) estimates the
-remaining time at any c1 because both numerator and denominator scale alike with the line
-spacing (paper 003 Alg. 2 l. 25).
+The remaining survey *fraction* (:meth:`PlanSource.RemainingFraction`, the sequencer's
+:meth:`~eaplan_drake.flight.sequencer.StageSequencer.SurveyRemaining`) is the survey length still
+to fly divided by the survey length of the whole plan at the current c1 (the approach excluded):
+it falls from 1 to 0 along a flight, exactly 0 at the last trigger, and fraction · t(c1)
+estimates the remaining time at any c1 because both numerator and denominator scale alike with
+the line spacing (paper 003 Alg. 2 l. 25). The sequencer's ``coverage_remaining`` (the planner's
+input) is the same ratio with the rest and the whole plan taken at c̄1 instead: it does not jump on
+re-plans, but at the end of a plan flown below c̄1 it still holds the repetitions that the c̄1 plan
+would fit after the flown plan's last one (the number of repetitions is whole at each c1).
+
+What a completed plan covers (``tests/test_completion.py``): with swaths of half the widest line
+spacing flown, d/2, the lines cover the polygon from its near edge to the last second line's swath,
+but for small corners at slanted edges between coarse lines (a line spans the polygon over its own
+x_d band only). Beyond the last second line a strip at the far edge is left when the next
+repetition did not fit, narrower than d/2 + x_d/2: 2 % of the reference field at c1 = −1000, none
+at c1 = 0 (15 repetitions land on W − x_d/2). The first lines meet the second lines (the middle
+of the field is swept) only when the field is about 4 r1 wide across the lines or wider (the
+reference field: exactly 4 r1 = 300 m); a narrower field passes :func:`CheckCoverageGeometry`
+(which needs 2 r1 + x_d) and is left unswept between the last first line and the first second
+line.
 """
 
 import copy
@@ -444,7 +459,9 @@ class PlanSource:
     def RemainingFraction(self, stages, index: int, position=None, c1=None) -> float:
         """Fraction [0, 1] of the survey still to fly: the survey length after the point
         ``position`` on stage ``index`` (its entry when None) over the survey length of the whole
-        plan at c1 (default: the c1 of the last stage, i.e. the one the rest is flown with)."""
+        plan at c1 (default: the c1 of the last stage, i.e. the one the rest is flown with). The
+        sequencer's ``survey`` fraction for ``stages`` as flown; with the plan at c̄1 and c1 = c̄1,
+        its ``coverage_remaining``."""
         c1 = stages[-1].c1 if c1 is None else c1
         return SurveyFraction(
             stages[index], position, _SurveyLength(stages[index + 1 :]), self.SurveyLength(c1)

@@ -20,11 +20,27 @@ rest of the plan is flown with c1, for each c1 of a grid c1_1 < … < c1_M: the 
 active stage (its share of the stage's time) plus the times of the stages that would follow,
 generated with that c1, at the airspeed in the (constant, known) wind. It is the plan's staircase
 t(c1) from here (whole repetitions), not the Eq. 10 line; the mpc planner decides on it.
-``coverage_remaining`` is the fraction [0, 1] of the survey still to fly: the rest of the current
-stage plus the survey length of the remaining stages *as if flown at the reference c1 = c̄1* (the
-finest coverage), over the survey length of the whole plan at c̄1. It measures the area left, so it
-does not jump when c1 is re-planned (whole repetitions would make a ratio at the current c1 jump),
-and fraction · t(c1) estimates the remaining time at any c1 (paper 003 Alg. 2 l. 25).
+``coverage_remaining`` is the planner's fraction [0, 1] of the survey still to fly: the rest of the
+current stage plus the survey length of the remaining stages *as if flown at the reference c1 = c̄1*
+(the finest coverage), over the survey length of the whole plan at c̄1. It does not jump when c1 is
+re-planned (whole repetitions would make a ratio at the current c1 jump), and fraction · t(c1)
+estimates the remaining time at any c1 (paper 003 Alg. 2 l. 25). It is the work left if c1 were
+raised to c̄1, so it is *not* a completion measure: a plan flown below c̄1 ends, as Alg. 1 says,
+after its last whole repetition that fits at the flown c1; the c̄1 plan may fit one or two more
+repetitions from there (their shift is smaller), and the fraction still holds them when the survey
+completes (0.068 at the end of the reference field flown at c1 = −1000: one c̄1 repetition of the
+15). The paper planner reads this fraction and relies on that: a fraction that fell to 0 on the
+last line would have it raise c1 there, which regrows the plan by those repetitions (plan i then
+ends at the reserve instead of completing).
+
+The fraction of the survey *of the plan being flown* still to fly is the ``survey`` element of the
+``mode`` state (:meth:`StageSequencer.SurveyRemaining`): the rest of the current stage plus the
+survey length of the stages after it at the current c1, over the survey length of the whole plan at
+the current c1 (:meth:`~eaplan_drake.flight.coverage.PlanSource.RemainingFraction`). It falls to 0
+exactly when the survey completes (before the completing update it is at most the trigger radius
+plus one update's travel over the survey length), and it jumps by up to a repetition's share when a
+re-plan changes the number of repetitions left. It is the number to report ("x % of the survey
+left"); nothing in the loop reads it, so it changes no flight.
 
 The update runs every ``update_period`` [s]. So that its event times coincide with the other
 periodic events of a diagram (Drake computes sample times as k·period, and k·0.05 is not always
@@ -35,7 +51,8 @@ When the survey completes, the update returns ``EventStatus.ReachedTermination(s
 "complete")``: a ``Simulator`` stops there, without a monitor.
 
 State (discrete groups): ``mode`` (namedview :data:`SequencerMode`: active stage index, c1, the
-held remaining fraction and the held share of the active stage still to fly), ``period`` (T [s]),
+held remaining fraction (the planner's, at c̄1), the held share of the active stage still to fly
+and the held survey fraction of the plan being flown), ``period`` (T [s]),
 ``complete`` (0/1), ``path`` (the active stage's path descriptor, the held ``path`` output),
 ``entries`` (last entry time into each primitive stage) and ``source`` (namedview
 :data:`StageSource`: the stage after which the active one was generated, its anchor and the c1 it
@@ -73,10 +90,11 @@ _SUCCEEDED = EventStatus.Succeeded()
 UPDATE_PERIOD = 0.05
 """Default period of the sequencer's trigger test [s] (the authors' simulator's)."""
 
-SequencerMode = namedview("SequencerMode", ["stage", "c1", "remaining", "stage_left"])
-"""The sequencer's ``mode`` state: active stage index, c1 [m²], remaining survey fraction [-],
-share of the active stage's path still to fly [-]."""
-_STAGE, _C1, _REMAINING, _STAGE_LEFT = range(len(SequencerMode._fields))
+SequencerMode = namedview("SequencerMode", ["stage", "c1", "remaining", "stage_left", "survey"])
+"""The sequencer's ``mode`` state: active stage index, c1 [m²], remaining survey fraction at the
+reference c1 = c̄1 (``coverage_remaining``, the planner's) [-], share of the active stage's path
+still to fly [-], remaining survey fraction of the plan being flown (0 when complete) [-]."""
+_STAGE, _C1, _REMAINING, _STAGE_LEFT, _SURVEY = range(len(SequencerMode._fields))
 
 StageSource = namedview(
     "StageSource", ["after_index"] + [f"anchor_{i}" for i in range(ANCHOR_SIZE)] + ["c1"]
@@ -193,6 +211,7 @@ class StageSequencer(LeafSystem):
         # finest coverage), so that it does not jump when c1 is re-planned.
         self._c1_ref = self._c1_hi
         self._memo_key = None
+        self._survey_memo_key = None
         self._total = plan.SurveyLength(self._c1_ref)
         first = plan.Stages(c1)[0]
         mode = SequencerMode(np.zeros(len(SequencerMode._fields)))
@@ -200,6 +219,7 @@ class StageSequencer(LeafSystem):
         mode.stage = first.index
         mode.remaining = SurveyFraction(first, None, self._RestLength(first), self._total)
         mode.stage_left = 1.0
+        mode.survey = SurveyFraction(first, None, *self._FlownLengths(first, c1))
         source = StageSource(np.zeros(len(StageSource._fields)))
         source.after_index = -1.0
         source.c1 = c1
@@ -289,6 +309,12 @@ class StageSequencer(LeafSystem):
         """The stage being flown (from the plan source, keyed by the ``source`` state)."""
         return self._StageOf(context.get_discrete_state(self._source_index).value())
 
+    def SurveyRemaining(self, context) -> float:
+        """Fraction [0, 1] of the survey of the plan being flown still to fly (the ``survey``
+        element of ``mode``; 0 once the survey is complete). Unlike ``coverage_remaining`` (the
+        planner's fraction at c̄1) it holds no repetition that the flown plan does not have."""
+        return float(SequencerMode(context.get_discrete_state(self._mode_index).value()).survey)
+
     # -- internals -------------------------------------------------------------------------------
 
     def _StageOf(self, source) -> Stage:
@@ -312,6 +338,19 @@ class StageSequencer(LeafSystem):
     def _RestLength(self, stage: Stage) -> float:
         """Survey length [m] after ``stage`` if the rest were flown at the reference c1."""
         return self._plan.SurveyLengthAfter(stage.index, stage.anchor, self._c1_ref)
+
+    def _FlownLengths(self, stage: Stage, c1: float) -> tuple[float, float]:
+        """(survey length [m] after ``stage`` when the rest is flown with c1, survey length [m] of
+        the whole plan at c1): memoised for the last (stage, c1) seen."""
+        key = (stage.index, stage.anchor, c1)
+        if key != self._survey_memo_key:
+            plan = self._plan
+            self._survey_memo = (
+                plan.SurveyLengthAfter(stage.index, stage.anchor, c1),
+                plan.SurveyLength(c1),
+            )
+            self._survey_memo_key = key
+        return self._survey_memo
 
     def _CalcRemainingTime(self, context, output) -> None:
         mode = SequencerMode(context.get_discrete_state(self._mode_index).value())
@@ -351,8 +390,10 @@ class StageSequencer(LeafSystem):
         mode[_STAGE] = stage.index
         if complete:
             mode[_REMAINING] = 0.0
+            mode[_SURVEY] = 0.0
         else:
             mode[_REMAINING] = SurveyFraction(stage, (px, py), rest_length, self._total)
+            mode[_SURVEY] = SurveyFraction(stage, (px, py), *self._FlownLengths(stage, c1))
         length = stage.length
         mode[_STAGE_LEFT] = PathLeft(stage, (px, py)) / length if length > 0.0 else 0.0
         if complete:
