@@ -117,24 +117,37 @@ def test_flight_figure_marks_events_end_and_uncovered_area():
     scenario = _Scenario()
     fig = PlotFlight(_Log(completed=False), scenario)
     texts = _Texts(fig)
-    for expected in ("warm-up (20 s)", "survey area", "start", "c1", "c2", "period T (right)"):
+    for expected in ("warm-up (20 s)", "survey area", "start", "period T (right)", "every 10 s"):
         assert expected in texts, expected
+    assert "c̃1: c1 from -1000 to 0 m² (c1 = r2² − r² ≤ 0; 0: densest lines)" in texts
+    assert "c̃2: c2 from 2 to 10 [table units]" in texts
     assert any(t.startswith("fault (−6 % at 30 s") for t in texts)
-    assert any(t == "end: reserve reached at 60.0 s" for t in texts)
+    assert "fault 30 s" in texts  # the fault's place on the path
+    assert "end: reserve reached at 60.0 s" in texts  # the path's legend
+    assert any(t.startswith("end: reserve reached at 60.0 s, b = 0.400") for t in texts)
     assert any(t.startswith("not covered (") for t in texts)
     assert any(t.startswith("wind 5 m/s") for t in texts)
     axes = {ax.get_title(): ax for ax in fig.axes if ax.get_title()}
+    assert set(axes) == {"path", "energy", "parameters", "battery", "planner (mpc)"}
     # The start-up spike of the estimate (80 W) does not set the energy panel's range.
     assert axes["energy"].get_ylim()[1] < 40.0
-    # The parameter axes sit at their bounds (c1 ∈ [−1000, 0] m², c2 ∈ [2, 10] fps) ± 6 %.
-    c1_lo, c1_hi = axes["parameters"].get_ylim()
-    assert c1_lo == pytest.approx(-1060.0) and c1_hi == pytest.approx(60.0)
+    # Both parameters normalised on one axis, ± 6 %; no twin axes over it.
+    assert axes["parameters"].get_ylim() == pytest.approx((-0.06, 1.06))
     twins = [
         a
         for a in fig.axes
         if a is not axes["parameters"] and a.bbox.bounds == axes["parameters"].bbox.bounds
     ]
-    assert any(a.get_ylim() == pytest.approx((1.52, 10.48)) for a in twins)
+    assert not twins
+    # The period's twin axis of the energy panel is ticked only at periods it can show.
+    (period,) = [
+        a
+        for a in fig.axes
+        if a is not axes["energy"] and a.bbox.bounds == axes["energy"].bbox.bounds
+    ]
+    ticks = period.get_yticks()  # 48 s ± 10 %, where the band of the period lies
+    assert ticks.size >= 2 and np.all((ticks >= 48.0 - 4.8) & (ticks <= 48.0 + 4.8))
+    assert period.get_ylim()[0] < 48.0 - 4.8 * 3  # the band is the panel's top part
     plt.close(fig)
     fig = PlotFlight(_Log(completed=True), scenario)
     texts = _Texts(fig)

@@ -84,6 +84,9 @@ def test_replay_is_one_self_contained_html_file(tmp_path):
     assert not re.search(r"<link[^>]+href=\"?https?:", html)
     assert 'id="eaplan-readout"' in html
     assert '"c1": [-1000.0' in html
+    # The readout gives the normalised parameters of the figures, with c1 in m² beside.
+    assert '"c1n": [0.0' in html and '"c2n": [0.0' in html and "(c1 = " in html
+    assert "path colour: quality &frac12;c&#771;1 + &frac12;c&#771;2 as in" in html
 
 
 def _Chromium():

@@ -9,13 +9,22 @@ beyond the far plane of Meshcat's default camera.
 What the scene shows (x, y as in the plots; z up):
 
 - the survey polygon (grey) and the lines of the plan at the initial c1 (thin, dark grey);
-- the flown path, revealed as time passes, coloured by the quality ½c̃1 + ½c̃2 (viridis:
-  purple = lowest, yellow = highest);
+- the flown path, revealed as time passes, coloured by the quality ½c̃1 + ½c̃2 on the colour map
+  of ``flight.png`` (:data:`~eaplan_drake.output.plots.QUALITY_COLORMAP`, viridis: purple = 0,
+  yellow = 1);
 - the aircraft as a small body and wing, turned to its heading ψ;
-- the wind as a red arrow beside the area (length ∝ speed: 1 hm per 10 m/s);
-- three bars to the right of the area that follow time: SoC b (green, with the reserve as a red
-  tick), c̃1 (blue) and c̃2 (orange), each full length at 1; and a text line at the top of the
-  page with t, b, c1 and c2 at the slider's time.
+- the wind as a dark grey arrow beside the area (length ∝ speed: 1 hm per 10 m/s);
+- three bars to the right of the area that follow time: SoC b (green, with the reserve as a cyan
+  tick), c̃1 (blue) and c̃2 (orange), each full length at 1 (the colours of ``flight.png``,
+  :data:`~eaplan_drake.output.plots.COLORS`); and a text line at the top of the page with t, b,
+  c̃1 (c1 [m²]) and c̃2 (c2 [table units]) at the slider's time.
+
+The parameters are normalised as in the figures, c̃ = (c − c̲)/(c̄ − c̲) ∈ [0, 1]; the path
+parameter c1 = r2² − r² [m²] ≤ 0 (c1 = 0 flies the densest lines).
+
+Drake's Meshcat logs the address it listens on when it is constructed; a replay written to a
+file does not need it, so :func:`SaveFlightReplay` lowers the ``drake`` logger to warnings while
+it makes its own Meshcat.
 
 ``replay.html#t=200`` opens the replay paused at t = 200 s.
 
@@ -23,13 +32,15 @@ The geometry (:func:`ReplayFrames`, :func:`PathChunks`, :func:`ArrowOutline`) is
 and tested on its own; only :func:`SaveFlightReplay` touches Meshcat.
 """
 
+import contextlib
 import json
+import logging
 from pathlib import Path
 
 import numpy as np
 
 from eaplan_drake.files import AtomicWrite
-from eaplan_drake.flightlog import FlightLog, NormalisedParameters
+from eaplan_drake.flightlog import FlightLog, NormalisedParameters, SampleQuality
 from eaplan_drake.params import Scenario
 
 __all__ = [
@@ -120,6 +131,13 @@ def _Rgba(rgb, a=1.0):
     return Rgba(float(rgb[0]), float(rgb[1]), float(rgb[2]), a)
 
 
+def _Color(name, a=1.0):
+    """The Drake ``Rgba`` of a matplotlib colour name."""
+    from matplotlib.colors import to_rgb
+
+    return _Rgba(to_rgb(name), a)
+
+
 def _Flat(meshcat, path, outline_xy, z, rgba):
     """A flat convex polygon (fan triangulation) at height z."""
     pts = np.asarray(outline_xy, dtype=float)
@@ -137,14 +155,30 @@ def _Planned(scenario: Scenario):
     return [StagePoints(s) for s in plan.Stages(c1)]
 
 
-def _OverlayHtml(times, soc, c1, c2) -> str:
-    """A text line (t, b, c1, c2) that follows the animation's time, and the legend."""
+@contextlib.contextmanager
+def _QuietDrakeLog(level=logging.WARNING):
+    """Drake's log messages below ``level`` are dropped inside the block (pydrake routes Drake's
+    log through the Python logger ``drake``; setting its level sets Drake's)."""
+    logger = logging.getLogger("drake")
+    previous = logger.level
+    logger.setLevel(max(level, previous))
+    try:
+        yield
+    finally:
+        logger.setLevel(previous)
+
+
+def _OverlayHtml(times, soc, c1, c2, c1n, c2n) -> str:
+    """A text line (t, b, c̃1 (c1), c̃2 (c2)) that follows the animation's time, and the
+    legend."""
     data = json.dumps(
         {
             "t": [round(float(v), 3) for v in times],
             "b": [round(float(v), 4) for v in soc],
             "c1": [round(float(v), 1) for v in c1],
             "c2": [[round(float(x), 2) for x in row] for row in c2],
+            "c1n": [round(float(v), 3) for v in c1n],
+            "c2n": [round(float(v), 3) for v in c2n],
         }
     )
     return f"""
@@ -153,9 +187,10 @@ def _OverlayHtml(times, soc, c1, c2) -> str:
  pointer-events:none">
  <div id="eaplan-readout">t = 0.0 s</div>
  <div style="font-size:12px;color:#444">bars: <span style="color:#2ca02c">SoC b</span>
- (red tick: reserve), <span style="color:#1f77b4">c&#771;1</span>,
- <span style="color:#ff7f0e">c&#771;2</span>; path colour: quality (purple low, yellow high);
- red arrow: wind; 1 grid cell = 100 m</div>
+ (cyan tick: reserve), <span style="color:#1f77b4">c&#771;1</span>,
+ <span style="color:#ff7f0e">c&#771;2</span> (normalised, 0 lowest, 1 highest; c1 = r2&#178;
+ &minus; r&#178; &le; 0 m&#178;); path colour: quality &frac12;c&#771;1 + &frac12;c&#771;2 as in
+ flight.png (purple 0, yellow 1); dark grey arrow: wind; 1 grid cell = 100 m</div>
 </div>
 <script>
 (function() {{
@@ -178,8 +213,9 @@ def _OverlayHtml(times, soc, c1, c2) -> str:
     var t = a ? a.time : 0;
     var i = find(d.t[0] + t);
     document.getElementById("eaplan-readout").textContent =
-      "t = " + d.t[i].toFixed(1) + " s   b = " + d.b[i].toFixed(3) + "   c1 = " +
-      d.c1[i].toFixed(0) + " m\\u00b2   c2 = " + d.c2[i].join(", ");
+      "t = " + d.t[i].toFixed(1) + " s   b = " + d.b[i].toFixed(3) + "   c\\u03031 = " +
+      d.c1n[i].toFixed(2) + " (c1 = " + d.c1[i].toFixed(0) + " m\\u00b2)   c\\u03032 = " +
+      d.c2n[i].toFixed(2) + " (c2 = " + d.c2[i].join(", ") + ")";
   }}
   tick();
   setInterval(tick, 100);
@@ -205,11 +241,14 @@ def SaveFlightReplay(
     from pydrake.geometry import Box, Meshcat, Rgba
     from pydrake.math import RigidTransform, RotationMatrix
 
+    from eaplan_drake.output.plots import COLORS, QUALITY_COLORMAP
+
     path = Path(path)
     frames = ReplayFrames(log.times, frame_rate)
     own = meshcat is None
     if own:
-        meshcat = Meshcat()
+        with _QuietDrakeLog():  # not "Meshcat listening for connections at http://…"
+            meshcat = Meshcat()
     try:
         meshcat.Delete()
         meshcat.DeleteRecording()
@@ -221,7 +260,7 @@ def SaveFlightReplay(
         c1 = np.asarray(log["path_parameters"], dtype=float)[:, 0]
         c2 = np.asarray(log["computation_parameters"], dtype=float).reshape(len(log.times), -1)
         c1n, c2n = NormalisedParameters(log)
-        quality = 0.5 * c1n + 0.5 * c2n
+        quality = SampleQuality(log)
 
         poly = np.asarray(scenario.coverage.polygon, dtype=float) / UNIT
         _Flat(meshcat, "/eaplan/survey_area", poly, 0.0, Rgba(0.8, 0.8, 0.8, 1.0))
@@ -230,8 +269,9 @@ def SaveFlightReplay(
             meshcat.SetLine(f"/eaplan/plan/{i}", v, 1.0, Rgba(0.75, 0.8, 0.9, 1.0))
 
         import matplotlib
+        from matplotlib.colors import to_rgb
 
-        cmap = matplotlib.colormaps["viridis"]
+        cmap = matplotlib.colormaps[QUALITY_COLORMAP]
         num_colours = 8
         chunks = PathChunks(quality, num_colours=num_colours)
         for k, (a, b, colour) in enumerate(chunks):
@@ -249,11 +289,13 @@ def SaveFlightReplay(
             angle = np.arctan2(w[1], w[0])
             rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
             base = np.array([lo_xy[0], hi_xy[1] + 0.3])
-            _Flat(meshcat, "/eaplan/wind", outline @ rot.T + base, 0.02, Rgba(0.85, 0.1, 0.1, 1))
+            _Flat(meshcat, "/eaplan/wind", outline @ rot.T + base, 0.02, _Color(COLORS["wind"]))
 
         # Bars to the right of the area, growing along +y from their base.
-        bars = {"soc": (soc, (0.17, 0.63, 0.17)), "c1": (c1n, (0.12, 0.47, 0.71))}
-        bars["c2"] = (c2n, (1.0, 0.5, 0.05))
+        bars = {
+            name: (values, to_rgb(COLORS[name]))
+            for name, values in zip(("soc", "c1", "c2"), (soc, c1n, c2n), strict=True)
+        }
         x_bar = hi_xy[0] + 0.4
         for j, (name, (_, rgb)) in enumerate(bars.items()):
             x = x_bar + 0.3 * j
@@ -271,7 +313,7 @@ def SaveFlightReplay(
             meshcat.SetTransform(f"/eaplan/bars/{name}/value/box", RigidTransform([0.0, 0.5, 0.0]))
             meshcat.SetTransform(f"/eaplan/bars/{name}", RigidTransform([x, lo_xy[1], 0.02]))
         reserve_y = lo_xy[1] + _BAR_LENGTH * scenario.battery.reserve_soc
-        meshcat.SetObject("/eaplan/bars/reserve", Box(0.22, 0.02, 0.03), Rgba(0.85, 0.1, 0.1, 1))
+        meshcat.SetObject("/eaplan/bars/reserve", Box(0.22, 0.02, 0.03), _Color(COLORS["reserve"]))
         meshcat.SetTransform("/eaplan/bars/reserve", RigidTransform([x_bar, reserve_y, 0.03]))
 
         # The aircraft: a body along +x and a wing along y, turned to the heading.
@@ -312,7 +354,7 @@ def SaveFlightReplay(
     finally:
         if own:
             del meshcat
-    overlay = _OverlayHtml(log.times, soc, c1, c2)
+    overlay = _OverlayHtml(log.times, soc, c1, c2, c1n, c2n)
     html = html.replace("</body>", overlay + "</body>", 1) if "</body>" in html else html + overlay
     path.parent.mkdir(parents=True, exist_ok=True)
     AtomicWrite(path, lambda f: f.write(html), binary=False)
