@@ -46,9 +46,57 @@ __all__ = ["main"]
 
 
 def _FormatSummary(summary: dict) -> str:
+    import statistics
+
+    from eaplan_drake.output.plots import InfeasibleCause
+
     metric = summary.get("metric")
     planner = summary.get("planner", {})
+    policy = summary.get("policy", "?")
     infeasible_at = summary.get("first_infeasible_time")
+    steps, infeasible = planner.get("solves", 0), planner.get("infeasible", 0)
+    indent = " " * 16
+    if policy in ("static", "hindsight") and not steps:
+        planning = [f"planner         none: the {policy} policy holds the initial parameters"]
+    else:
+        planning = [
+            f"planner         {steps} steps: {infeasible} infeasible"
+            + (f" (first at {infeasible_at:.1f} s)" if infeasible_at is not None else "")
+            + f", {planner.get('failures', 0)} solver fallbacks"
+        ]
+        solved = [t for t in planner.get("solve_times") or [] if t and t > 0.0]
+        if not steps:
+            planning.append(f"{indent}no planner step: the flight ended before the first one")
+        elif solved:
+            unsolved = steps - len(solved)
+            planning.append(
+                f"{indent}NLP solved at {len(solved)} of {steps} steps, "
+                f"median {1e3 * statistics.median(solved):.1f} ms"
+                + (
+                    f"; the lowest plan flown unsolved at the other {unsolved} (it was not "
+                    "feasible with its margin)"
+                    if policy == "mpc" and unsolved > 0
+                    else ""
+                )
+            )
+        elif "solve_times" not in planner and planner.get("median_solve_time"):
+            planning.append(f"{indent}median solve {1e3 * planner['median_solve_time']:.1f} ms")
+        else:  # a policy that solves no NLP: say so, not "median solve 0.0 ms"
+            planning.append(
+                indent
+                + {
+                    "paper": "no NLP solved: with integer parameters the paper's planner "
+                    "searches the table's c2 grid exactly",
+                    "greedy_authors": "no NLP solved: the authors' rule tries every c2 of the "
+                    "table",
+                    "greedy": "no NLP solved: a one-step rule over the table's c2",
+                    "mpc": "no NLP solved: the lowest plan was not feasible at any step, so it "
+                    "was flown",
+                }.get(policy, "no NLP solved")
+            )
+        if infeasible:
+            why, what = InfeasibleCause(policy)
+            planning.append(f"{indent}{infeasible} steps where {why}; {what}")
     lines = [
         f"scenario        {summary['scenario']}",
         f"policy          {summary.get('policy', '?')}",
@@ -60,11 +108,7 @@ def _FormatSummary(summary: dict) -> str:
         f"reserve {summary['reserve_soc']:.2f})",
         f"duration        {summary['duration']:.1f} s",
         f"metric P        {'fail' if metric is None else f'{metric:.3f}'} (paper's; see README)",
-        f"planner         {planner.get('solves', 0)} steps: {planner.get('infeasible', 0)} "
-        "infeasible"
-        + (f" (first at {infeasible_at:.1f} s)" if infeasible_at is not None else "")
-        + f", {planner.get('failures', 0)} solver fallbacks"
-        + f", median solve {1e3 * (planner.get('median_solve_time') or 0.0):.1f} ms",
+        *planning,
         f"wall time       {summary['wall_time']:.1f} s "
         f"({summary['realtime_factor']:.0f}x real time)",
     ]
@@ -363,13 +407,20 @@ def _Fit(args) -> int:
 
 
 def main(argv=None) -> int:
+    from eaplan_drake import __version__
+    from eaplan_drake.loading import ShippedNames
+
     parser = argparse.ArgumentParser(
         prog="eaplan-drake",
         description="Energy-aware planning-scheduling for fixed-wing UAVs (Drake).",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("simulate", help="fly one scenario; print the summary; write log and plots")
-    p.add_argument("scenario", help="shipped name (plan_I, plan_II, plan_i, plan_ii) or YAML path")
+    p.add_argument(
+        "scenario",
+        help=f"shipped name ({', '.join(ShippedNames('scenarios'))}) or YAML path",
+    )
     p.add_argument("--out", default="out", help="output directory (default: out/)")
     p.add_argument(
         "--set",
