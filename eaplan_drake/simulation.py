@@ -119,7 +119,10 @@ def _Summary(log: FlightLog, diagram, context, scenario: Scenario, status: str) 
         reserve,
         completed,
     )
-    remaining = float(log["coverage_remaining"][-1, 0]) if len(log.times) else 1.0
+    sequencer = diagram.GetSubsystemByName("sequencer")
+    # the share of the plan being flown still to fly (0 when complete; the logged
+    # coverage_remaining, which the paper's planner reads, is the work left at the finest c1)
+    remaining = float(sequencer.SurveyRemaining(sequencer.GetMyContextFromRoot(context)))
     infeasible_at = np.flatnonzero(log["mission_feasible"][:, 0] < 0.5)
     return {
         "scenario": scenario.name,

@@ -1,0 +1,113 @@
+"""Are the flights of this tree the same, bit for bit, as those of another tree?
+
+    python3 benchmarks/flights_bit_for_bit.py --baseline-tree ../base [--flights plan_i,survey]
+
+flies each flight in a fresh process with this tree and with the baseline tree (a checkout of
+another version, e.g. ``git worktree add ../base <commit>``), saves every logged signal and the
+summary, and compares them with ``numpy.array_equal(..., equal_nan=True)``; summary fields that
+measure the machine (wall and solve times) are left out. Prints one line per flight and exits
+non-zero if any differs. The default flights: the four reference flights, the compare flights
+with the default planner, a greedy flight in wind and the shipped survey.
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+FLIGHTS = {
+    "plan_I": ("plan_I", []),
+    "plan_II": ("plan_II", []),
+    "plan_i": ("plan_i", []),
+    "plan_ii": ("plan_ii", []),
+    "plan_i_mpc": ("plan_i", ["planner: {policy: mpc}"]),
+    "plan_ii_mpc": ("plan_ii", ["planner: {policy: mpc}"]),
+    "plan_i_greedy_wind": ("plan_i", ["planner: {policy: greedy}", "wind: {speed: 6.0}"]),
+    "survey": ("survey", []),
+}
+
+CHILD = """
+import json, sys
+import numpy as np
+try:
+    from eaplan_drake.loading import LoadNamedScenario
+except ImportError:  # a tree from before the package layout
+    from eaplan_drake.simulation import LoadNamedScenario
+from eaplan_drake.simulation import Simulate
+name, out = sys.argv[1], sys.argv[2]
+log = Simulate(LoadNamedScenario(name, json.loads(sys.argv[3])))
+np.savez(out, times=log.times, summary=json.dumps(log.summary, default=str), **log.signals)
+"""
+
+MACHINE = (
+    "wall_time",
+    "realtime_factor",
+    "step_times",
+    "median_step_time",
+    "p95_step_time",
+    "solve_times",
+    "median_solve_time",
+    "p95_solve_time",
+)
+
+
+def _Fly(tree: Path, scenario: str, overrides: list, out: Path) -> None:
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    subprocess.run(
+        [sys.executable, "-c", CHILD, scenario, str(out), json.dumps(overrides)],
+        env=env,
+        check=True,
+        capture_output=True,
+        cwd=tree,
+    )
+
+
+def _Summary(text: str) -> dict:
+    def strip(value):
+        if isinstance(value, dict):
+            return {k: strip(v) for k, v in value.items() if k not in MACHINE}
+        return value
+
+    return strip(json.loads(text))
+
+
+def Compare(a: Path, b: Path) -> list[str]:
+    """The names of the arrays and summary keys that differ between two saved flights."""
+    with np.load(a) as x, np.load(b) as y:
+        differ = [
+            k
+            for k in x.files
+            if k != "summary" and not (k in y.files and np.array_equal(x[k], y[k], equal_nan=True))
+        ]
+        sx, sy = _Summary(str(x["summary"])), _Summary(str(y["summary"]))
+    return differ + [f"summary.{k}" for k in sx if k in sy and sx[k] != sy[k]]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--baseline-tree", required=True, type=Path)
+    ap.add_argument("--flights", default=",".join(FLIGHTS), help="comma-separated names")
+    args = ap.parse_args()
+    here = Path(__file__).resolve().parents[1]
+    same = True
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in args.flights.split(","):
+            scenario, overrides = FLIGHTS[name]
+            mine, theirs = Path(tmp) / f"{name}_this.npz", Path(tmp) / f"{name}_base.npz"
+            _Fly(here, scenario, overrides, mine)
+            _Fly(args.baseline_tree.resolve(), scenario, overrides, theirs)
+            differ = Compare(mine, theirs)
+            same &= not differ
+            verdict = "bit for bit the same" if not differ else "DIFFERS: " + ", ".join(differ)
+            print(f"{name}: {verdict}")
+    print("all flights bit for bit the same" if same else "some flights differ")
+    return 0 if same else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
