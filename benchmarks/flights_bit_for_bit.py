@@ -76,16 +76,17 @@ def _Summary(text: str) -> dict:
     return strip(json.loads(text))
 
 
-def Compare(a: Path, b: Path) -> list[str]:
-    """The names of the arrays and summary keys that differ between two saved flights."""
+def Compare(a: Path, b: Path) -> tuple[list[str], list[str]]:
+    """(signals and summary keys that differ, signals only this tree logs) of two saved flights."""
     with np.load(a) as x, np.load(b) as y:
+        new = [k for k in x.files if k not in y.files]
         differ = [
             k
             for k in x.files
-            if k != "summary" and not (k in y.files and np.array_equal(x[k], y[k], equal_nan=True))
+            if k != "summary" and k in y.files and not np.array_equal(x[k], y[k], equal_nan=True)
         ]
         sx, sy = _Summary(str(x["summary"])), _Summary(str(y["summary"]))
-    return differ + [f"summary.{k}" for k in sx if k in sy and sx[k] != sy[k]]
+    return differ + [f"summary.{k}" for k in sx if k in sy and sx[k] != sy[k]], new
 
 
 def main() -> int:
@@ -101,10 +102,11 @@ def main() -> int:
             mine, theirs = Path(tmp) / f"{name}_this.npz", Path(tmp) / f"{name}_base.npz"
             _Fly(here, scenario, overrides, mine)
             _Fly(args.baseline_tree.resolve(), scenario, overrides, theirs)
-            differ = Compare(mine, theirs)
+            differ, new = Compare(mine, theirs)
             same &= not differ
             verdict = "bit for bit the same" if not differ else "DIFFERS: " + ", ".join(differ)
-            print(f"{name}: {verdict}")
+            extra = f" (signals only this tree logs: {', '.join(new)})" if new else ""
+            print(f"{name}: {verdict}{extra}")
     print("all flights bit for bit the same" if same else "some flights differ")
     return 0 if same else 1
 

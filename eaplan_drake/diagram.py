@@ -82,6 +82,7 @@ LOGGED_SIGNALS = {
     "path_parameters": ("planner", "path_parameters"),
     "computation_parameters": ("planner", "computation_parameters"),
     "mission_feasible": ("planner", "mission_feasible"),
+    "predicted_soc": ("planner", "predicted_soc"),  # [predicted end SoC, required end SoC]
 }
 """Signals logged by :func:`MakeEaplanDiagram` and exported as diagram output ports of the same
 names (:func:`LoggedSignals` returns them in this order)."""

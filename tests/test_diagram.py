@@ -63,6 +63,22 @@ def test_logged_signals_split_the_one_sink_into_the_exported_ports():
         LoggedSignals(unlogged, unlogged.CreateDefaultContext())
 
 
+def test_predicted_soc_is_logged_nan_before_the_planner_acts_and_finite_after():
+    scenario = LoadScenario(data="planner: {policy: mpc, warmup: 2.0}")
+    diagram = MakeEaplanDiagram(scenario, log_period=0.5)
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(4.0)
+    times, signals = LoggedSignals(diagram, simulator.get_context())
+    predicted = signals["predicted_soc"]
+    assert predicted.shape == (times.size, 2)
+    assert np.all(np.isnan(predicted[times < 2.0]))
+    after = predicted[times > 2.0]
+    assert after.size and np.all(np.isfinite(after))
+    reserve = scenario.battery.reserve_soc
+    assert np.all(after[:, 1] > reserve)  # reserve + a positive margin
+    assert np.all((after[:, 0] > 0.0) & (after[:, 0] < 1.0))
+
+
 def test_the_estimator_behind_an_averaging_sensor_uses_r_over_n():
     rates = "simulation: {max_step: 0.01}\nestimator: {rate: 10, measurement_noise: 0.3}\n"
     for averaging, n in ((False, 1), (True, 10)):

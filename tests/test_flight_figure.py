@@ -79,6 +79,13 @@ def _Log(policy="paper", completed=True):
     feasible = np.ones(n)
     feasible[(t >= 60.0) & (t < 80.0)] = 0.0
     feasible[t >= 105.0] = 0.0
+    predicted = np.full((n, 2), np.nan)  # the planner's view: NaN until it acts (mpc only)
+    if policy == "mpc":
+        step = np.floor(t / 10.0) * 10.0  # a planner step every 10 s from the warm-up on
+        acted = t >= 20.0
+        predicted[acted, 0] = np.interp(step[acted], t, soc) - 0.25
+        predicted[acted, 1] = 0.3 + 0.002 * (T_END - step[acted])
+        predicted[(t >= 110.0) & (t < 115.0), 0] = -np.inf  # a brown-out prediction: not drawn
     return FlightLog(
         times=t,
         signals={
@@ -93,6 +100,7 @@ def _Log(policy="paper", completed=True):
             "soc": soc[:, None],
             "power_budget": (47.36 * soc)[:, None],
             "mission_feasible": feasible[:, None],
+            "predicted_soc": predicted,
         },
         summary={
             "status": "complete" if completed else "reserve_reached",
@@ -440,6 +448,27 @@ def test_planner_panel_shades_the_infeasible_steps_with_their_cause(figure):
         assert "power_budget" not in " ".join(lines)
     if policy == "mpc":
         assert why == "even the lowest plan ends below reserve + margin"
+
+
+def test_battery_panel_draws_the_planners_predicted_and_required_end_soc(figure):
+    fig, log, scenario = figure
+    ax = _Panels(fig)["battery"]
+    lines = {ln.get_label(): ln for ln in ax.lines}
+    names = ("predicted end SoC (chosen plan)", "required at the end (reserve + margin)")
+    if scenario.planner.policy != "mpc":  # NaN throughout: nothing drawn
+        assert not set(names) & set(lines)
+        return
+    for i, (name, color) in enumerate(zip(names, (COLORS["soc"], COLORS["reserve"]), strict=True)):
+        line = lines[name]
+        assert line.get_linestyle() == "--"
+        assert matplotlib.colors.to_rgb(line.get_color()) == matplotlib.colors.to_rgb(color)
+        assert line.get_drawstyle() == "steps-post"
+        y = np.asarray(line.get_ydata(), dtype=float)
+        v = log["predicted_soc"][:, i]
+        np.testing.assert_array_equal(np.isfinite(y), np.isfinite(v))
+        np.testing.assert_array_equal(y[np.isfinite(y)], v[np.isfinite(v)])
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert set(names) <= set(labels)
 
 
 def test_time_mark_step_runs_and_parameter_steps():

@@ -579,6 +579,38 @@ def test_system_forced_failure_is_counted_and_falls_back(table):
     assert system.statistics()["solves"] == 0
 
 
+def test_mpc_decision_predicts_its_end_soc_and_the_port_shows_it(table):
+    params = PlannerParams(policy="mpc", warmup=1.0, period=1.0)
+    policy = _Policy(params, table)
+    system = _Scheduler(params, table, [10.0], policy=policy)
+    assert system.GetOutputPort("predicted_soc").size() == 2
+    context = system.CreateDefaultContext()
+    assert np.all(np.isnan(system.GetOutputPort("predicted_soc").Eval(context)))
+    diagram, _ = _Diagram(system)
+    dcontext = diagram.CreateDefaultContext()
+    sc = system.GetMyContextFromRoot(dcontext)
+    decision = policy.Plan(system.Observe(sc), policy.InitialMemory())
+    pb = policy.problem
+    assert math.isfinite(decision.predicted_end_soc) and math.isfinite(decision.required_end_soc)
+    j = int(np.argmin(np.abs(pb.grid - decision.path_parameter)))
+    assert decision.required_end_soc == pytest.approx(
+        BatteryParams().reserve_soc + float(pb.Margin(pb.t_rem[j]))
+    )
+    if decision.feasible:
+        assert decision.predicted_end_soc >= decision.required_end_soc - 1e-9
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(1.5)  # one update at t = 1 from the same (constant) inputs
+    port = system.GetOutputPort("predicted_soc").Eval(
+        system.GetMyContextFromRoot(simulator.get_context())
+    )
+    np.testing.assert_allclose(port, [decision.predicted_end_soc, decision.required_end_soc])
+    # A policy that does not predict leaves NaN.
+    paper = _Policy(PlannerParams(policy="paper"), table)
+    observation = system.Observe(sc)
+    d = paper.Plan(observation, paper.InitialMemory())
+    assert math.isnan(d.predicted_end_soc) and math.isnan(d.required_end_soc)
+
+
 def test_planner_params_power_model_and_solver_are_validated():
     from eaplan_drake.errors import ScenarioError
 

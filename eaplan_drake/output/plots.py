@@ -728,9 +728,31 @@ def PlotSoc(ax, log: FlightLog, scenario: Scenario) -> None:
     end_handle = Line2D(
         [], [], ms=9, label=f"end: {_EndText(s)}, b = {b_end:.3f} (margin {margin:+.3f})", **end
     )
-    ax.set_ylim(0.0, 1.05)
+    predicted = _PredictedSoc(ax, log)
+    lowest = min([0.0, *(float(np.nanmin(ln.get_ydata())) for ln in predicted)])
+    ax.set_ylim(lowest - (0.03 if lowest < 0.0 else 0.0), 1.05)
     ax.set_ylabel("b [-]")
-    _FinishTimePanel(ax, [b, rl, end_handle, *handles], 2, _TimeRange(log), "battery")
+    _FinishTimePanel(ax, [b, rl, *predicted, end_handle, *handles], 2, _TimeRange(log), "battery")
+
+
+def _PredictedSoc(ax, log: FlightLog) -> list:
+    """The planner's logged ``predicted_soc`` as dashed step lines where finite: the end SoC it
+    predicts for the plan it chose and the SoC it requires at the end (reserve + margin)."""
+    values = np.asarray(log.signals.get("predicted_soc", np.zeros((0, 0))), dtype=float)
+    if values.ndim != 2 or values.shape[0] != len(log.times) or values.shape[1] < 2:
+        return []
+    lines = []
+    for i, label, color, ls in (
+        (0, "predicted end SoC (chosen plan)", COLORS["soc"], "--"),
+        (1, "required at the end (reserve + margin)", COLORS["reserve"], (0, (2.0, 1.5))),
+    ):
+        v = np.where(np.isfinite(values[:, i]), values[:, i], np.nan)
+        if np.any(np.isfinite(v)):
+            (line,) = ax.step(
+                log.times, v, where="post", color=color, ls=ls, lw=1.0, label=label, zorder=2
+            )
+            lines.append(line)
+    return lines
 
 
 def PlotParameters(ax, log: FlightLog, scenario: Scenario | None = None) -> None:

@@ -84,6 +84,12 @@ class PlannerDecision:
     status: str = ""
     solve_time: float = 0.0
     """Wall time of the solver [s] (statistics only; never changes a decision)."""
+    predicted_end_soc: float = math.nan
+    """The SoC the policy predicts at the end of the survey under the plan it chose [-] (mpc;
+    NaN for a policy that does not predict it)."""
+    required_end_soc: float = math.nan
+    """The SoC the policy requires at the end [-] (mpc: reserve + margin m(t_rem) of the chosen
+    c1; NaN for a policy that does not require one)."""
 
 
 class PlannerPolicy:
@@ -138,8 +144,13 @@ class PlannerScheduler(LeafSystem):
     after a step where it cannot (mpc: not even the lowest-quality plan completes the survey above
     the reserve plus the margin; it then flies the lowest plan).
 
+    ``predicted_soc`` is [predicted end SoC, required end SoC] [-] of the last decision
+    (:attr:`PlannerDecision.predicted_end_soc`, :attr:`PlannerDecision.required_end_soc`; NaN
+    before the first update and for a policy that does not predict them).
+
     Discrete state: [c1] (group 0), [c2] (group 1), [mission_feasible] (group 2), the policy's
-    memory (group 3); the outputs are the state (no direct feedthrough, so no algebraic loop).
+    memory (group 3), [predicted end SoC, required end SoC] (group 4); the outputs are the state
+    (no direct feedthrough, so no algebraic loop).
     The solve statistics (:meth:`statistics`) are Python-side attributes of the System, *not*
     Drake state: they accumulate over every context/simulation of this instance
     (:meth:`reset_statistics`) and never change a decision.
@@ -158,6 +169,7 @@ class PlannerScheduler(LeafSystem):
         - path_parameters
         - computation_parameters
         - mission_feasible
+        - predicted_soc
     """
 
     def __init__(
@@ -211,11 +223,13 @@ class PlannerScheduler(LeafSystem):
         self._memory_size = memory.size
         # Drake needs a non-empty group: an empty memory is stored as one unused zero.
         self._memory_index = self.DeclareDiscreteState(memory if memory.size else np.zeros(1))
+        self._predicted_index = self.DeclareDiscreteState(np.full(2, np.nan))
         self._path_port = self.DeclareStateOutputPort("path_parameters", self._c1_index)
         self._computation_port = self.DeclareStateOutputPort(
             "computation_parameters", self._c2_index
         )
         self._feasible_port = self.DeclareStateOutputPort("mission_feasible", self._feasible_index)
+        self._predicted_port = self.DeclareStateOutputPort("predicted_soc", self._predicted_index)
         if policy.acts:
             self.DeclarePeriodicDiscreteUpdateEvent(period, warmup, self._Update)
         self.reset_statistics()
@@ -302,6 +316,9 @@ class PlannerScheduler(LeafSystem):
         )
         discrete_state.get_mutable_vector(self._feasible_index).SetAtIndex(
             0, 1.0 if decision.feasible else 0.0
+        )
+        discrete_state.get_mutable_vector(self._predicted_index).SetFromVector(
+            np.array([decision.predicted_end_soc, decision.required_end_soc], dtype=float)
         )
         if self._memory_size:
             discrete_state.get_mutable_vector(self._memory_index).SetFromVector(

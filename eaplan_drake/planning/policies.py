@@ -76,6 +76,15 @@ def _InvalidInput(problem: MissionProblem, memory) -> PlannerDecision:
     )
 
 
+def _Prediction(problem: MissionProblem, plan) -> dict:
+    """The :class:`PlannerDecision` fields of what ``plan`` (a :class:`MissionDecision`)
+    predicts: its end SoC and the SoC required at the end (reserve + its margin m(t_rem))."""
+    return {
+        "predicted_end_soc": float(plan.end_soc),
+        "required_end_soc": float(problem.battery.reserve_soc) + float(plan.margin),
+    }
+
+
 class StaticPolicy(PlannerPolicy):
     """Holds the initial parameters (paper 003 plans I and II)."""
 
@@ -168,6 +177,7 @@ class MpcPolicy(PlannerPolicy):
                 True,
                 bool(low.feasible) or pb.NominallyFeasible(),
                 "after a SoC drop: the lowest plan to the end",
+                **_Prediction(pb, low),
             )
         else:
             d = self._Plan(o, memory[:-2])
@@ -193,6 +203,7 @@ class MpcPolicy(PlannerPolicy):
                 "uncertain: the lowest plan until the estimate settles"
                 if nominal
                 else "infeasible: the lowest plan ends below reserve + margin",
+                **_Prediction(pb, low),
             )
         t0 = time.perf_counter()
         # From the warm start, then (deterministically) from the lowest plan, which is feasible,
@@ -220,6 +231,7 @@ class MpcPolicy(PlannerPolicy):
                 d.feasible,
                 f"solver failed: {status}",
                 solve_time,
+                **_Prediction(pb, d),
             )
         d = pb.MapRelaxed(x[1:])
         return PlannerDecision(
@@ -230,6 +242,7 @@ class MpcPolicy(PlannerPolicy):
             True,
             status,
             solve_time,
+            **_Prediction(pb, d),
         )
 
 
