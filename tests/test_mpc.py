@@ -16,7 +16,7 @@ from eaplan_drake.params import BatteryParams, CoverageParams, PlannerParams, Ve
 from eaplan_drake.planning.mpc import MissionProblem
 from eaplan_drake.planning.planner import PlannerObservation
 from eaplan_drake.planning.policies import MakePolicy, MpcPolicy
-from eaplan_drake.studies.worlds import RandomPlannerObservation
+from eaplan_drake.studies.worlds import BruteForceAgreement
 
 ORDER = 3
 PERIOD = 46.0
@@ -209,21 +209,7 @@ def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan
     assert isinstance(policy, MpcPolicy)
     assert policy.program.solver.id().name().lower() == solver
     rng = np.random.default_rng(2024)
-    memory = policy.InitialMemory()
-    agree = total = 0
-    while total < 100:
-        o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
-        pb = policy.problem
-        pb.SetObservation(o)
-        if not pb.Lowest().feasible:
-            continue
-        expected = pb.BruteForce()
-        d = policy.Plan(o, memory)
-        memory = d.memory
-        total += 1
-        agree += d.path_parameter == expected.path_parameter and np.array_equal(
-            d.computation_parameters, expected.computation_parameters
-        )
+    agree, total = BruteForceAgreement(policy, plan, GRID, table.parameter_grids[0], rng, 100)
     assert agree / total >= 0.99, f"{agree} of {total}"
 
 

@@ -29,7 +29,7 @@ from eaplan_drake.planning.risk_margin import (
     FaultModelFromParams,
     RiskTable,
 )
-from eaplan_drake.studies.worlds import RandomPlannerObservation
+from eaplan_drake.studies.worlds import BruteForceAgreement, RandomPlannerObservation
 
 GRID = np.linspace(-1000.0, 0.0, 21)
 MODELS = {
@@ -175,21 +175,7 @@ def test_risk_nlp_first_move_equals_brute_force_on_random_feasible_states(table,
     feasible planner states."""
     policy = _RiskPolicy(table)
     rng = np.random.default_rng(2025)
-    memory = policy.InitialMemory()
-    agree = total = 0
-    while total < 200:
-        o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
-        pb = policy.problem
-        pb.SetObservation(o)
-        if not pb.Lowest().feasible:
-            continue
-        expected = pb.BruteForce()
-        d = policy.Plan(o, memory)
-        memory = d.memory
-        total += 1
-        agree += d.path_parameter == expected.path_parameter and np.array_equal(
-            d.computation_parameters, expected.computation_parameters
-        )
+    agree, total = BruteForceAgreement(policy, plan, GRID, table.parameter_grids[0], rng, 200)
     assert agree / total >= 0.99, f"{agree} of {total}"
     assert 0.0 < UNREACHABLE_MARGIN <= 0.05
 

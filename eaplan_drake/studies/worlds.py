@@ -16,6 +16,7 @@ from eaplan_drake.params import BatteryFault, Scenario
 from eaplan_drake.planning.planner import PlannerObservation
 
 __all__ = [
+    "BruteForceAgreement",
     "DrawWorld",
     "LowestPlan",
     "RandomPlannerObservation",
@@ -131,3 +132,29 @@ def RandomPlannerObservation(
         path_parameter=c1,
         computation_parameters=np.array([float(rng.choice(computation_values))]),
     )
+
+
+def BruteForceAgreement(
+    policy, plan: PlanSource, path_parameter_grid, computation_values, rng, states: int
+) -> tuple[int, int]:
+    """(agreeing, total) over ``states`` random feasible planner states
+    (:func:`RandomPlannerObservation`): how often an mpc-like ``policy``'s first move (its
+    decision, carrying its memory from state to state as in flight) equals the exact discrete
+    optimum of its problem (``policy.problem.BruteForce()``); states whose lowest plan is
+    infeasible are skipped."""
+    memory = policy.InitialMemory()
+    agree = total = 0
+    while total < states:
+        o = RandomPlannerObservation(rng, plan, path_parameter_grid, computation_values)
+        problem = policy.problem
+        problem.SetObservation(o)
+        if not problem.Lowest().feasible:
+            continue
+        expected = problem.BruteForce()
+        d = policy.Plan(o, memory)
+        memory = d.memory
+        total += 1
+        agree += d.path_parameter == expected.path_parameter and np.array_equal(
+            d.computation_parameters, expected.computation_parameters
+        )
+    return agree, total
