@@ -108,6 +108,8 @@ MAX_SURVEY_LINES = 2000
 """Largest width of the field across the lines / swath_spacing [-] (a 2000-line plan has ≈ 8000
 stages and takes ≈ 1 s to build)."""
 MAX_FAULTS = 100
+MAX_EXPECTED_DROPS = 100.0
+"""Largest λ·time_limit of a risk-reserve planner's fault model (bounds its tail sums)."""
 MAX_COMPUTATION_PARAMETERS = 8
 MAX_NAME_LENGTH = 100
 _NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*")
@@ -982,6 +984,14 @@ class Scenario(_Params):
             f"{MAX_STEPS:g} steps, got {sim.time_limit:g} s × {fastest:g} Hz",
         )
         _CheckRates(self)
+        expected = self.planner.fault_model.rate * sim.time_limit
+        _check(
+            self.planner.reserve != "risk" or expected <= MAX_EXPECTED_DROPS,
+            "planner.fault_model.rate",
+            f"with planner.reserve: risk, rate × simulation.time_limit (the drops expected in a "
+            f"flight) must be <= {MAX_EXPECTED_DROPS:g}, got {self.planner.fault_model.rate:g} "
+            f"1/s × {sim.time_limit:g} s",
+        )
         _check(
             sim.time_limit / self.planner.period <= MAX_PLANNER_STEPS,
             "planner.period",

@@ -74,6 +74,8 @@ import math
 
 import numpy as np
 
+from eaplan_drake.params import MAX_EXPECTED_DROPS
+
 __all__ = [
     "ClopperPearsonUpper",
     "EmpiricalDrops",
@@ -86,10 +88,6 @@ __all__ = [
     "UniformDrops",
     "WorldsNeeded",
 ]
-
-MAX_EXPECTED_DROPS = 100.0
-"""Largest λτ (expected drops in one exposure) accepted: a planner's exposure holds a few, and the
-exact uniform sums cost O(n³) in the largest count n (a fraction of a second at λτ = 100)."""
 
 POISSON_TAIL = 1e-12
 """Poisson mass beyond the last count summed (the tails are exact to this, from below)."""
