@@ -32,8 +32,9 @@ import textwrap  # noqa: E402
 import threading  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+from eaplan_drake import __version__  # noqa: E402
 from eaplan_drake.errors import MissingExtraError, ScenarioError  # noqa: E402
-from eaplan_drake.loading import OverrideFromAssignment, ShippedFile  # noqa: E402
+from eaplan_drake.loading import OverrideFromAssignment, ShippedFile, ShippedNames  # noqa: E402
 from eaplan_drake.output.reference import (  # noqa: E402
     PAPER_RESULTS,
     CompareScenarios,
@@ -42,7 +43,7 @@ from eaplan_drake.output.reference import (  # noqa: E402
 from eaplan_drake.rates import RATE_PRESETS  # noqa: E402
 from eaplan_drake.registry import POLICIES  # noqa: E402
 
-__all__ = ["main"]
+__all__ = ["MakeParser", "main"]
 
 
 def _FormatSummary(summary: dict) -> str:
@@ -406,16 +407,26 @@ def _Fit(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    from eaplan_drake import __version__
-    from eaplan_drake.loading import ShippedNames
-
+def MakeParser() -> argparse.ArgumentParser:
+    """The command line's parser: one subcommand per job, each added by its own function."""
     parser = argparse.ArgumentParser(
         prog="eaplan-drake",
         description="Energy-aware planning-scheduling for fixed-wing UAVs (Drake).",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
+    _AddSimulateParser(sub)
+    _AddDiagramParser(sub)
+    _AddCompareParser(sub)
+    _AddSweepParser(sub)
+    _AddCertifyParser(sub)
+    _AddFitParser(sub)
+    _AddStudyReportParser(sub)
+    return parser
+
+
+def _AddSimulateParser(sub) -> None:
+    """The ``simulate`` subcommand's arguments."""
     p = sub.add_parser("simulate", help="fly one scenario; print the summary; write log and plots")
     p.add_argument(
         "scenario",
@@ -457,9 +468,17 @@ def main(argv=None) -> int:
         "like the file; after --rates, before --set; repeatable (name gets the file's stem)",
     )
     p.set_defaults(run=_Simulate)
+
+
+def _AddDiagramParser(sub) -> None:
+    """The ``diagram`` subcommand's arguments."""
     p = sub.add_parser("diagram", help="write DOT and SVG of the closed loop and its systems")
     p.add_argument("--out", default="diagrams", help="output directory (default: diagrams/)")
     p.set_defaults(run=_Diagram)
+
+
+def _AddCompareParser(sub) -> None:
+    """The ``compare`` subcommand's arguments."""
     p = sub.add_parser(
         "compare", help="the four reference flights next to the paper's numbers, and i, ii with mpc"
     )
@@ -473,6 +492,10 @@ def main(argv=None) -> int:
         help="override a key of every flight (repeatable), e.g. simulation.time_limit=60",
     )
     p.set_defaults(run=_Compare)
+
+
+def _AddSweepParser(sub) -> None:
+    """The ``sweep`` subcommand's arguments."""
     p = sub.add_parser(
         "sweep",
         help="fly a study (sweep / Monte Carlo) and write its report",
@@ -516,6 +539,10 @@ def main(argv=None) -> int:
         "averaging sensor and filter; paper = 100 Hz; scenario = the base scenario's own)",
     )
     p.set_defaults(run=_Sweep)
+
+
+def _AddCertifyParser(sub) -> None:
+    """The ``certify`` subcommand's arguments."""
     p = sub.add_parser(
         "certify",
         help="measure a scenario's excess-failure rate over random worlds and certify its risk",
@@ -550,6 +577,10 @@ def main(argv=None) -> int:
         "--wait-for-workers", type=float, default=60.0, metavar="SECONDS", help="as sweep"
     )
     p.set_defaults(run=_Certify)
+
+
+def _AddFitParser(sub) -> None:
+    """The ``fit`` subcommand's arguments."""
     p = sub.add_parser("fit", help="fit the energy model to a power log; score its predictions")
     p.add_argument("log", help="CSV: PX4 battery_status, Paparazzi energy log, or t/power columns")
     p.add_argument("--period", type=float, default=None, help="T [s] (default: estimated)")
@@ -581,9 +612,17 @@ def main(argv=None) -> int:
     )
     p.add_argument("--no-aperiodic", action="store_true", help="the paper's model (no AR(1))")
     p.set_defaults(run=_Fit)
+
+
+def _AddStudyReportParser(sub) -> None:
+    """The ``study-report`` subcommand's arguments."""
     p = sub.add_parser("study-report", help="the report of a study directory")
     p.add_argument("directory")
     p.set_defaults(run=_StudyReport)
+
+
+def main(argv=None) -> int:
+    parser = MakeParser()
     args = parser.parse_args(argv)
     previous = _ExitOnSigterm()
     try:
