@@ -1,10 +1,12 @@
-"""Shared pytest configuration: the Agg backend, and the ``authors_data`` marker.
+"""Shared pytest configuration: the Agg backend, the ``authors_data`` marker, and a small study.
 
 A test marked ``authors_data`` reads the authors' logs and measurements (``$EAPLAN_REFERENCE_DIR``,
 default ``../shared/reference/seewald2022`` beside the repository). Without them it is skipped
 with that reason, and the run's summary says how many such tests ran and how many were skipped,
 so a clone without the data is never mistaken for a full run.
 """
+
+import textwrap
 
 import matplotlib
 import pytest
@@ -34,3 +36,30 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
             f"authors' data: {_AUTHORS_DATA['ran']} tests with the data, "
             f"{_AUTHORS_DATA['skipped']} skipped without it ({ReferenceDirectory()})"
         )
+
+
+MINI_STUDY = textwrap.dedent(
+    """\
+    name: mini
+    base: plan_i
+    set: {simulation.time_limit: 5.0, planner.warmup: 2.0}
+    draws: 1
+    seed: 3
+    policies: [mpc, greedy]
+    """
+)
+"""A study of two 5 s flights per policy (mpc, greedy) on one world, for the studies' tests."""
+
+
+@pytest.fixture
+def mini_text() -> str:
+    """The text of :data:`MINI_STUDY`."""
+    return MINI_STUDY
+
+
+@pytest.fixture
+def mini(tmp_path, mini_text):
+    """:data:`MINI_STUDY` written to a file in ``tmp_path``: its path."""
+    path = tmp_path / "mini.yaml"
+    path.write_text(mini_text)
+    return path

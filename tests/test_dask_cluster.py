@@ -21,16 +21,6 @@ from eaplan_drake.studies.sweep import LoadStudy, RunStudy, StudyFlights
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
-MINI = textwrap.dedent(
-    """\
-    name: mini
-    base: plan_i
-    set: {simulation.time_limit: 5.0, planner.warmup: 2.0}
-    draws: 1
-    seed: 3
-    policies: [mpc, greedy]
-    """
-)
 CRASH = textwrap.dedent(
     """\
     # Worker preload: the mpc flight ends its worker process (as a crash in a flight would).
@@ -49,13 +39,6 @@ CRASH = textwrap.dedent(
         sweep.FlyRow = FlyRow
     """
 )
-
-
-@pytest.fixture
-def mini(tmp_path):
-    path = tmp_path / "mini.yaml"
-    path.write_text(MINI)
-    return path
 
 
 def _Cluster(n_workers, **kwargs):

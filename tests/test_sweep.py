@@ -188,25 +188,11 @@ def test_wilson_interval():
     assert lo == pytest.approx(0.4038, abs=1e-4) and hi == pytest.approx(0.5962, abs=1e-4)
 
 
-MINI = textwrap.dedent(
-    """\
-    name: mini
-    base: plan_i
-    set: {simulation.time_limit: 5.0, planner.warmup: 2.0}
-    draws: 1
-    seed: 3
-    policies: [mpc, greedy]
-    """
-)
-
-
-def test_a_torn_last_line_is_set_aside_and_its_flight_flown_again(tmp_path):
+def test_a_torn_last_line_is_set_aside_and_its_flight_flown_again(tmp_path, mini):
     """A kill mid-write leaves the last row cut, without its newline: the next run moves the
     fragment to rows.jsonl.torn (never gluing a row onto it), flies that flight again, and the
     report counts every flight once."""
-    path = tmp_path / "mini.yaml"
-    path.write_text(MINI)
-    st, d = LoadStudy(path)
+    st, d = LoadStudy(mini)
     out = tmp_path / "o"
     reference = RunStudy(st, out, directory=d, progress=False)
     rows = out / "rows.jsonl"
@@ -259,11 +245,11 @@ def _SessionProcesses(session: int) -> list[int]:
 
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux /proc")
-def test_killing_a_two_job_sweep_leaves_no_worker_running(tmp_path):
+def test_killing_a_two_job_sweep_leaves_no_worker_running(tmp_path, mini_text):
     """SIGKILL of `sweep --jobs 2` while its loky workers fly: within 10 s no process of the
     sweep's session is left (the workers notice their parent is gone)."""
     path = tmp_path / "long.yaml"
-    path.write_text(MINI.replace("5.0", "400.0").replace("draws: 1", "draws: 3"))
+    path.write_text(mini_text.replace("5.0", "400.0").replace("draws: 1", "draws: 3"))
     command = [sys.executable, "-m", "eaplan_drake", "sweep", str(path), "--out"]
     proc = subprocess.Popen(
         [*command, str(tmp_path / "o"), "--jobs", "2"],
