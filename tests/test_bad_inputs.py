@@ -379,21 +379,6 @@ def test_cli_subprocess_bad_table_and_plan_are_one_line(tmp_path):
     [
         ("sensor.rate=30", "sensor.rate: its period must be an integer multiple"),
         ("estimator.rate=7", "estimator.rate: its period must be an integer multiple"),
-    ],
-)
-def test_cli_bad_rate_combination_from_set_is_one_line(assignment, expected, tmp_path, capsys):
-    out = tmp_path / "out"
-    status = _Bounded(cli_main, ["simulate", "plan_i", "--set", assignment, "--out", str(out)])
-    err = capsys.readouterr().err
-    assert status == 2, err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and expected in lines[0], err
-    assert not out.exists()
-
-
-@pytest.mark.parametrize(
-    "assignment, expected",
-    [
         ("computation.integer=off", "computation.integer: expected true or false, got 'off'"),
         ("planner.path_parameter_bounds=[-10, -10]", "planner.path_parameter_bounds: need"),
         ("planner.enabled=false", "planner.enabled: unknown key"),
