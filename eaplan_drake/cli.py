@@ -494,18 +494,9 @@ def _AddCompareParser(sub) -> None:
     p.set_defaults(run=_Compare)
 
 
-def _AddSweepParser(sub) -> None:
-    """The ``sweep`` subcommand's arguments."""
-    p = sub.add_parser(
-        "sweep",
-        help="fly a study (sweep / Monte Carlo) and write its report",
-        description="Fly a study and write rows.jsonl, report.md and figures in --out; running "
-        "it again flies only the flights without a row. Exit status 2: bad input or missing "
-        "extra; 3: the Dask cluster did not fly the study (no scheduler, no worker for "
-        "--wait-for-workers seconds, scheduler lost).",
-    )
-    p.add_argument("study", help="shipped study (robustness, battery_size) or YAML path")
-    p.add_argument("--out", required=True, help="output directory (rows.jsonl, report.md)")
+def _AddBackendArguments(p) -> None:
+    """Where a study's flights run (sweep, certify): --jobs, --backend, --scheduler and
+    --wait-for-workers (checked together by :func:`_CheckBackend`)."""
     p.add_argument(
         "--jobs",
         type=int,
@@ -530,6 +521,21 @@ def _AddSweepParser(sub) -> None:
         help="backend dask: how long to wait for the scheduler and, at the start or later, for "
         "a connected worker before giving up (default 60)",
     )
+
+
+def _AddSweepParser(sub) -> None:
+    """The ``sweep`` subcommand's arguments."""
+    p = sub.add_parser(
+        "sweep",
+        help="fly a study (sweep / Monte Carlo) and write its report",
+        description="Fly a study and write rows.jsonl, report.md and figures in --out; running "
+        "it again flies only the flights without a row. Exit status 2: bad input or missing "
+        "extra; 3: the Dask cluster did not fly the study (no scheduler, no worker for "
+        "--wait-for-workers seconds, scheduler lost).",
+    )
+    p.add_argument("study", help="shipped study (robustness, battery_size) or YAML path")
+    p.add_argument("--out", required=True, help="output directory (rows.jsonl, report.md)")
+    _AddBackendArguments(p)
     p.add_argument("--save-logs", action="store_true", help="also save every flight's log")
     p.add_argument(
         "--rates",
@@ -570,12 +576,7 @@ def _AddCertifyParser(sub) -> None:
         default="fast",
         help="rates of every flight (default fast; paper = 100 Hz; scenario = its own)",
     )
-    p.add_argument("--jobs", type=int, default=None, help="loky worker processes (as sweep)")
-    p.add_argument("--backend", choices=("loky", "dask"), default="loky", help="as sweep")
-    p.add_argument("--scheduler", default="", help="Dask scheduler address (backend dask)")
-    p.add_argument(
-        "--wait-for-workers", type=float, default=60.0, metavar="SECONDS", help="as sweep"
-    )
+    _AddBackendArguments(p)
     p.set_defaults(run=_Certify)
 
 
