@@ -81,11 +81,15 @@ def test_soc_prediction_matches_the_rint_closed_form_for_a_constant_load(table):
             assert slope == pytest.approx((SocAfter(0.9, load, 1.0, BATTERY) - 0.9), rel=1e-9)
 
 
-@pytest.mark.parametrize("fault_reserve_time", [0.0, 400.0])
-def test_smooth_constraint_jacobian_matches_finite_differences(table, fault_reserve_time):
+@pytest.mark.parametrize(
+    "planner",
+    [{"fault_reserve_time": 0.0}, {"fault_reserve_time": 400.0}, {"reserve": "risk"}],
+    ids=["reserve held", "reserve shrinking", "risk reserve"],
+)
+def test_smooth_constraint_jacobian_matches_finite_differences(table, planner):
     rng = np.random.default_rng(3)
     policy = MakePolicy(
-        PlannerParams(fault_reserve_time=fault_reserve_time),
+        PlannerParams(**planner),
         table,
         ORDER,
         BATTERY,
