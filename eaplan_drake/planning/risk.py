@@ -70,6 +70,7 @@ little, and a plan that spends more loses those worlds: its excess risk is large
 """
 
 import dataclasses as dc
+import functools
 import math
 
 import numpy as np
@@ -84,6 +85,8 @@ __all__ = [
     "ExponentialDrops",
     "FaultModel",
     "MarginAtRisk",
+    "PoissonCutoff",
+    "PoissonPmf",
     "TotalDropTail",
     "UniformDrops",
     "WorldsNeeded",
@@ -133,11 +136,13 @@ def _Out(x: np.ndarray):
     return float(x) if np.ndim(x) == 0 else x
 
 
+@functools.lru_cache(maxsize=64)
 def _LogFactorials(n_max: int) -> np.ndarray:
+    """log k! for k = 0..n_max (cached; do not modify)."""
     return np.array([math.lgamma(k + 1.0) for k in range(n_max + 1)])
 
 
-def _PoissonPmf(mean: np.ndarray, n_max: int) -> np.ndarray:
+def PoissonPmf(mean: np.ndarray, n_max: int) -> np.ndarray:
     """e^(-Λ) Λ^n / n! for n = 0..n_max, shape mean.shape + (n_max + 1,), computed in log space."""
     mean = np.asarray(mean, dtype=float)[..., None]
     k = np.arange(n_max + 1)
@@ -146,7 +151,7 @@ def _PoissonPmf(mean: np.ndarray, n_max: int) -> np.ndarray:
     return np.where(mean > 0.0, pmf, (k == 0).astype(float))
 
 
-def _PoissonCutoff(mean: float) -> int:
+def PoissonCutoff(mean: float) -> int:
     """Smallest n_max with P(N > n_max) < POISSON_TAIL for N ~ Poisson(mean), by the Chernoff bound
     P(N >= k) <= e^(-Λ) (eΛ/k)^k (k > Λ)."""
     if mean <= 0.0:
@@ -260,7 +265,7 @@ class ExponentialDrops:
         """Q_n(m) for n = 0..n_max: the Erlang survival P(Poisson(m/μ) <= n − 1), a sum of positive
         terms (m >= 0), shape margin.shape + (n_max + 1,)."""
         m = np.asarray(margin, dtype=float)
-        pmf = _PoissonPmf(np.maximum(m, 0.0) / self.mean, max(n_max - 1, 0))[..., :n_max]
+        pmf = PoissonPmf(np.maximum(m, 0.0) / self.mean, max(n_max - 1, 0))[..., :n_max]
         survival = np.concatenate([np.zeros(m.shape + (1,)), np.cumsum(pmf, axis=-1)], axis=-1)
         return np.where(m[..., None] < 0.0, 1.0, survival)
 
@@ -339,8 +344,8 @@ def TotalDropTail(model: FaultModel, exposure, margin):
     tau, m = np.broadcast_arrays(tau, m)
     expected = model.rate * tau
     _CheckExpected("exposure", expected)
-    n_max = _PoissonCutoff(float(np.max(expected, initial=0.0)))
-    tail = np.sum(_PoissonPmf(expected, n_max) * model.sizes.sum_tail(n_max, m), axis=-1)
+    n_max = PoissonCutoff(float(np.max(expected, initial=0.0)))
+    tail = np.sum(PoissonPmf(expected, n_max) * model.sizes.sum_tail(n_max, m), axis=-1)
     return _Out(np.where(m < 0.0, 1.0, np.clip(tail, 0.0, 1.0)))
 
 
@@ -356,7 +361,7 @@ def MarginAtRisk(model: FaultModel, exposure, eps: float, *, tolerance: float = 
     tau = _CheckArray("exposure", exposure, nonnegative=True, what="[s]")
     _CheckExpected("exposure", model.rate * tau)
     top = model.sizes.upper
-    n_max = np.vectorize(_PoissonCutoff, otypes=[float])(model.rate * tau)
+    n_max = np.vectorize(PoissonCutoff, otypes=[float])(model.rate * tau)
     hi = n_max * top if math.isfinite(top) else np.ones(tau.shape)
     for _ in range(64):
         short = np.asarray(TotalDropTail(model, tau, hi)) > eps
@@ -389,8 +394,8 @@ def _FallbackFailureBounds(model, expected_p, m_p, expected_0, m_0, cells):
     first = (
         half * _GAUSS_WEIGHTS * expected_p[:, None, None] * np.exp(-expected_p[:, None, None] * u)
     )
-    n_max = _PoissonCutoff(float(np.max(expected_0, initial=0.0)))
-    later = _PoissonPmf(expected_0[:, None, None] * (1.0 - u), n_max)
+    n_max = PoissonCutoff(float(np.max(expected_0, initial=0.0)))
+    later = PoissonPmf(expected_0[:, None, None] * (1.0 - u), n_max)
     weight = np.einsum("pcq,pcqn->pcn", first, later)
     left = m_0[:, None] - (m_0 - m_p)[:, None] * edges
     q = model.sizes.sum_tail(n_max + 1, left)[..., 1:]
@@ -422,7 +427,7 @@ def ExcessRiskBounds(
     _CheckExpected("plan_time", model.rate * tau_p)
     _CheckExpected("lowest_time", model.rate * tau_0)
     low_p, high_p = np.empty(tau_p.size), np.empty(tau_p.size)
-    n_max = _PoissonCutoff(float(np.max(model.rate * tau_0, initial=0.0)))
+    n_max = PoissonCutoff(float(np.max(model.rate * tau_0, initial=0.0)))
     chunk = max(1, 4_000_000 // ((2 * cells + 1) * _GAUSS_NODES.size * (n_max + 2)))
     for j in range(0, tau_p.size, chunk):
         part = slice(j, j + chunk)

@@ -36,6 +36,8 @@ from eaplan_drake.planning.risk import (
     EmpiricalDrops,
     ExponentialDrops,
     FaultModel,
+    PoissonCutoff,
+    PoissonPmf,
     TotalDropTail,
     UniformDrops,
 )
@@ -58,7 +60,6 @@ def _Quadrature(panels: int = 4, order: int = 8) -> tuple[np.ndarray, np.ndarray
 
 
 _U, _W = _Quadrature()
-_LOG_FACTORIALS = np.array([math.lgamma(i + 1.0) for i in range(4096)])
 _TINY = 1e-150
 """Probabilities below this are taken as 0 [-] (far below every tolerance here)."""
 _SEARCH = 32
@@ -76,20 +77,17 @@ def FaultModelFromParams(params: FaultModelParams) -> FaultModel:
     return FaultModel(float(params.rate), sizes)
 
 
-def _PoissonWeights(mean: np.ndarray, n: int) -> np.ndarray:
-    """e^(−Λ) Λ^k / k! for k = 0..n−1, shape mean.shape + (n,)."""
-    mean = np.asarray(mean, dtype=float)[..., None]
-    k = np.arange(n)
-    log_mean = np.log(np.where(mean > 0.0, mean, 1.0))
-    pmf = np.exp(k * log_mean - mean - _LOG_FACTORIALS[:n])
-    pmf = np.where(pmf < _TINY, 0.0, pmf)  # no subnormals: they make the products slow
-    return np.where(mean > 0.0, pmf, (k == 0).astype(float))
+def _PoissonWeights(mean, n: int) -> np.ndarray:
+    """e^(−Λ) Λ^k / k! for k = 0..n−1 (:func:`~eaplan_drake.planning.risk.PoissonPmf`), with
+    values below 1e-150 set to 0: subnormal numbers make the table's products slow."""
+    pmf = PoissonPmf(mean, n - 1)
+    return np.where(pmf < _TINY, 0.0, pmf)
 
 
-def _Cutoff(mean: float) -> int:
-    """Counts 0..n−1 to sum: n = Λ + 8√Λ + 18, beyond which the Poisson mass is below 1e-15
-    for every Λ ≤ 1000 (the Chernoff bound e^(−Λ) (eΛ/k)^k)."""
-    return int(mean + 8.0 * math.sqrt(max(mean, 0.0)) + 18.0)
+def _Counts(mean: float) -> int:
+    """Counts 0..n−1 to sum: beyond them the Poisson mass is below 1e-12
+    (:func:`~eaplan_drake.planning.risk.PoissonCutoff`)."""
+    return PoissonCutoff(mean) + 1
 
 
 class ExcessRiskTable:
@@ -104,31 +102,19 @@ class ExcessRiskTable:
         self.model = model
         self.max_exposure = float(max_exposure)
         self.step = float(margin_step)
-        self.counts = _Cutoff(model.rate * self.max_exposure) + 1
-        self.margins = np.arange(int(round(1.0 / self.step)) + 1) * self.step
-        q = np.asarray(model.sizes.sum_tail(self.counts, self.margins))  # (K, counts + 1)
+        self.counts = _Counts(model.rate * self.max_exposure) + 1
+        margins = np.arange(int(round(1.0 / self.step)) + 1) * self.step
+        q = np.asarray(model.sizes.sum_tail(self.counts, margins))  # (K, counts + 1)
         self.q = np.ascontiguousarray(np.where(q < _TINY, 0.0, q).T)  # (counts + 1, K)
 
-    def _Q(self, m: np.ndarray, upper: bool, first: int, n: int) -> np.ndarray:
-        """Q_k(m) for k = first..first+n−1 from the table: at the grid point below m (``upper``:
-        an upper bound) or above it; 1 for m < 0; shape m.shape + (n,)."""
-        m = np.asarray(m, dtype=float)
-        x = np.clip(m, 0.0, 1.0) / self.step
-        index = np.clip(
-            (np.floor(x) if upper else np.ceil(x)).astype(int), 0, self.margins.size - 1
-        )
-        q = self.q[first : first + n, index]  # (n, ...)
-        q = np.moveaxis(q, 0, -1)
-        return np.where(m[..., None] < 0.0, 1.0, q)
-
-    def _Counts(self, *means) -> int:
+    def _CountsFor(self, *means) -> int:
         largest = max(float(np.max(np.asarray(m), initial=0.0)) for m in means)
         if largest > self.model.rate * self.max_exposure * (1.0 + 1e-9):
             raise ValueError(
                 f"exposure: at most {self.max_exposure:g} s for this table, got "
                 f"{largest / self.model.rate:g} s"
             )
-        return min(_Cutoff(largest), self.counts)
+        return min(_Counts(largest), self.counts)
 
     def LowestFailure(self, lowest_time, lowest_margin) -> np.ndarray:
         """P(F_0) = P(S(τ_0) > m_0) [-]: the lowest plan's own risk, exact
@@ -151,11 +137,14 @@ class ExcessRiskTable:
                 for a in (plan_time, plan_margin, lowest_time, lowest_margin)
             )
         )
+        return self._Excess(tau_p, m_p, tau_0, m_0, self.LowestFailure(tau_0, m_0))
+
+    def _Excess(self, tau_p, m_p, tau_0, m_0, fail_0) -> np.ndarray:
+        """:meth:`Risk` of broadcast arrays, given the lowest plan's own P(F_0) ``fail_0``."""
         if tau_0.size and np.all(tau_0 == tau_0.flat[0]):
             fail_p = self._PlanFailure(tau_p, m_p, float(tau_0.flat[0]), m_0)
         else:  # one lowest plan per candidate
             fail_p = np.vectorize(self._PlanFailure)(tau_p, m_p, tau_0, m_0)
-        fail_0 = self.LowestFailure(tau_0, m_0)
         ordered = (tau_p >= tau_0) & (m_p <= m_0)
         risk = np.where(ordered, fail_p - fail_0, np.minimum(fail_p, 1.0 - fail_0))
         lowest = (tau_p == tau_0) & (m_p == m_0)
@@ -167,7 +156,7 @@ class ExcessRiskTable:
         margin grid for the quadrature's u, then read at M(u) for every plan."""
         lam = self.model.rate
         mean_p = lam * np.asarray(tau_p, dtype=float)
-        n = self._Counts(mean_p, lam * tau_0)
+        n = self._CountsFor(mean_p, lam * tau_0)
         later = _PoissonWeights(lam * tau_0 * (1.0 - _U), n)  # (U, n)
         mixed = later @ self.q[1 : n + 1]  # (U, K): G_u on the margin grid
         margin = _U * np.asarray(m_p)[..., None] + (1.0 - _U) * np.asarray(m_0)[..., None]
@@ -187,11 +176,15 @@ class ExcessRiskTable:
             return np.zeros_like(tau_p)
         lo = np.zeros_like(tau_p)
         width = np.full_like(tau_p, m_0)
-        found = np.zeros(tau_p.shape, dtype=bool)
-        for _ in range(2):
+        shape = (tau_p.size, _SEARCH + 1)
+        tau_0, lowest = np.full(shape, float(lowest_time)), np.full(shape, m_0)
+        fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
+        for stage in range(2):
             trial = lo[:, None] + width[:, None] * np.arange(_SEARCH + 1) / _SEARCH
-            ok = self.Risk(tau_p[:, None], trial, lowest_time, m_0) <= eps
-            found = ok[:, -1] if not np.any(found) else found
+            tau = np.broadcast_to(tau_p[:, None], shape)
+            ok = self._Excess(tau, trial, tau_0, lowest, fail_0) <= eps
+            if stage == 0:
+                found = ok[:, -1]  # m_p = m_0 is within ε
             first = np.where(ok.any(axis=1), np.argmax(ok, axis=1), _SEARCH)
             hi = np.take_along_axis(trial, first[:, None], axis=1)[:, 0]
             lo = np.where(first > 0, hi - width / _SEARCH, hi)
