@@ -2,6 +2,8 @@
 the tabulated excess risk against the exact bounds of eaplan_drake.planning.risk, the required
 margin it inverts, and the mpc that keeps every decision within ε and agrees with brute force."""
 
+import dataclasses as dc
+
 import numpy as np
 import pytest
 
@@ -128,15 +130,17 @@ def test_every_risk_decision_keeps_its_excess_risk_within_eps(table, plan):
     pb = policy.problem
     exact = FaultModelFromParams(FaultModelParams())
     rng = np.random.default_rng(7)
-    memory = policy.InitialMemory()
+    initial = policy.InitialMemory()
+    warm = policy.program.variables.size
+    memory = initial
     checked = 0
     while checked < 40:
         o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
         pb.SetObservation(o)
         if not pb.Lowest().feasible:
             continue
-        d = policy.Plan(o, memory)
-        memory = d.memory
+        d = policy.Plan(o, memory)  # a fresh mission: no drop yet, budget ε/2, no anchor
+        memory = np.concatenate((d.memory[:warm], initial[warm:]))
         j = int(np.flatnonzero(GRID == d.path_parameter)[0])
         floor = pb.Margin(pb.t_rem[j]) - pb.FaultReserve(pb.t_rem[j])
         m_p = d_end = pb.SocAt(float(table.power(d.computation_parameters)), pb.t_rem[j])
@@ -148,8 +152,42 @@ def test_every_risk_decision_keeps_its_excess_risk_within_eps(table, plan):
             - (pb.Margin(pb.t_rem[0]) - pb.FaultReserve(pb.t_rem[0]))
         )
         _, upper = ExcessRiskBounds(exact, pb.t_rem[j], m_p, pb.t_rem[0], m_0, cells=256)
-        assert upper <= 0.05 + 0.01, (checked, upper)  # within ε up to the table's step
+        assert upper <= policy.Budget(0) + 0.01, (checked, upper)  # up to the table's step
         checked += 1
+
+
+def test_a_lower_baseline_never_lowers_the_required_margin():
+    table = RiskTable(MODELS["uniform"], 600.0)
+    times = np.array([247.0, 260.0, 300.0, 400.0])
+    own = table.LowestFailure(247.0, 0.2)
+    plain = table.RequiredMargin(times, 247.0, 0.2, 0.02)
+    assert np.array_equal(table.RequiredMargin(times, 247.0, 0.2, 0.02, own), plain)
+    assert np.array_equal(table.RequiredMargin(times, 247.0, 0.2, 0.02, 1.0), plain)
+    anchored = table.RequiredMargin(times, 247.0, 0.2, 0.02, 0.5 * own)
+    assert np.all(anchored >= plain) and np.any(anchored > plain)
+
+
+def test_the_mission_budget_is_halved_after_each_drop_and_anchored_there(table, plan):
+    policy = _RiskPolicy(table, risk=0.04)
+    pb = policy.problem
+    assert [policy.Budget(k) for k in range(3)] == [0.02, 0.01, 0.005]
+    rng = np.random.default_rng(3)
+    while True:
+        o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
+        pb.SetObservation(o)
+        if pb.Lowest().feasible and o.soc > 0.5:
+            break
+    d = policy.Plan(o, policy.InitialMemory())
+    predicted, drops, anchor_end, _ = d.memory[-4:]
+    assert drops == 0 and pb._risk == 0.02
+    assert anchor_end == pytest.approx(o.time + pb.t_rem[0])
+    steady = dc.replace(o, time=o.time + pb.step, soc=predicted)
+    d = policy.Plan(steady, d.memory)
+    assert d.memory[-3] == 0 and d.memory[-2] == anchor_end  # the anchor holds
+    dropped = dc.replace(o, time=o.time + 2 * pb.step, soc=d.memory[-4] - 0.05)
+    d = policy.Plan(dropped, d.memory)
+    assert d.memory[-3] == 1 and pb._risk == 0.01  # the next budget, anchored anew
+    assert d.memory[-2] == pytest.approx(dropped.time + pb.t_rem[0])
 
 
 @pytest.mark.slow

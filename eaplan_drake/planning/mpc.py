@@ -192,6 +192,10 @@ class MissionProblem:
         self._rows = None
         self._cache: dict = {}
         self._smooth_cache: dict = {}
+        self._row_cache: dict = {}
+        self._best_cache: dict = {}
+        self._row_values: dict = {}
+        self._candidate_index: dict = {}
         self._margin_floor = float(planner.margin_floor)
         self._fault_reserve = float(planner.fault_reserve)
         self._fault_time = float(planner.fault_reserve_time)
@@ -201,7 +205,9 @@ class MissionProblem:
         if planner.reserve == "risk":
             self._fault_model = FaultModelFromParams(planner.fault_model)
             self._risk = float(planner.risk)
+            self._risk_anchor = None
             self._risk_times = self._risk_margins = self._risk_slopes = np.zeros(1)
+            self.lowest_risk_state = (0.0, 0.0)
 
     # -- per-step data -------------------------------------------------------------------------
 
@@ -241,6 +247,8 @@ class MissionProblem:
         self._slopes = _PchipSlopes(self.u1[self._hull], self.t_rem[self._hull])
         self._cache = {}
         self._smooth_cache = {}
+        self._row_cache = {}
+        self._best_cache = {}
         s_b = -float(self.battery_model.SocRateSlope(max(float(q[0]), 0.0)))
         sigma = math.sqrt(max(float(mean_power_variance), 0.0))
         p = self.params
@@ -248,9 +256,18 @@ class MissionProblem:
         if self._fault_model is not None:
             self._SetRiskMargins()
 
+    def SetRiskBudget(self, budget: float, anchor: tuple[float, float] | None = None) -> None:
+        """The excess risk ε_k [-] the next steps may spend (``reserve: risk``) and the mission's
+        anchor (τ_a [s] still to fly, m_a [-]): the lowest plan as it stood when the budget was
+        opened (:class:`~eaplan_drake.planning.policies.MpcPolicy`); None: the lowest plan from
+        the current state is the anchor. Takes effect at the next :meth:`SetState`."""
+        self._risk = float(budget)
+        self._risk_anchor = None if anchor is None else (float(anchor[0]), float(anchor[1]))
+
     def _SetRiskMargins(self) -> None:
         """m_req at the grid's remaining times (``reserve: risk``): against the lowest plan's
-        fault-free margin m_0 = b(t_rem(c̲1); c̲2) − b_res − m_floor − z s_b σ t_rem(c̲1)."""
+        fault-free margin m_0 = b(t_rem(c̲1); c̲2) − b_res − m_floor − z s_b σ t_rem(c̲1), the
+        excess measured from min(P(F_0), P(S(τ_a) > m_a)) when an anchor is set."""
         t_low = float(self.t_rem[0])
         g_low = float(self.candidate_power[self.lowest_candidate])
         m_0 = (
@@ -259,9 +276,14 @@ class MissionProblem:
             - self._margin_floor
             - self._margin_rate * t_low
         )
+        self.lowest_risk_state = (t_low, m_0)
         times = np.unique(np.minimum(self.t_rem, (self.n - 2) * self.step))
         table = RiskTable(self._fault_model, float(times[-1]))
-        margins = table.RequiredMargin(times, t_low, m_0, self._risk)
+        baseline = None
+        if self._risk_anchor is not None:
+            tau_a, m_a = self._risk_anchor
+            baseline = float(table.LowestFailure(max(tau_a, 0.0), m_a))
+        margins = table.RequiredMargin(times, t_low, m_0, self._risk, baseline)
         self._risk_times = times
         # a plan no margin keeps within ε needs more than the lowest plan has: just above m_0
         # (not +inf), which excludes it as surely and keeps the NLP's constraint gentle
@@ -354,12 +376,18 @@ class MissionProblem:
         )
 
     def FeasibleRow(self, power: float) -> tuple[np.ndarray, np.ndarray]:
-        """(feasible (M,), end SoC (M,)) of the plans (c1_j, c2) for g(c2) = ``power`` [W]."""
-        end = self.SocAt(power, self.t_rem)
-        ok = (end >= float(self.battery.reserve_soc) + self.Margin(self.t_rem)) & ~self._beyond
-        if self.RecursiveSlack(power) < 0.0:
-            ok = np.zeros_like(ok)
-        return ok, end
+        """(feasible (M,), end SoC (M,)) of the plans (c1_j, c2) for g(c2) = ``power`` [W]
+        (computed once per step for each power and margin setting: the arrays are shared, read
+        only)."""
+        key = (float(power), self._margin_rate, self._faults_counted)
+        row = self._row_cache.get(key)
+        if row is None:
+            end = self.SocAt(power, self.t_rem)
+            ok = (end >= float(self.battery.reserve_soc) + self.Margin(self.t_rem)) & ~self._beyond
+            if self.RecursiveSlack(power) < 0.0:
+                ok = np.zeros_like(ok)
+            row = self._row_cache[key] = (ok, end)
+        return row
 
     def Quality(self, j: int, u2: float) -> float:
         """J of the plan (c1_j, c2 with mean normalised value u2) [-]."""
@@ -398,9 +426,39 @@ class MissionProblem:
         finally:
             self._margin_rate, self._faults_counted = saved
 
+    def _Row(self, c2) -> tuple[float, float]:
+        """(g(c2) [W], mean normalised c̃2 [-]) of a c2 row, computed once per row."""
+        key = tuple(float(v) for v in c2)
+        row = self._row_values.get(key)
+        if row is None:
+            c2 = np.asarray(c2, dtype=float)
+            row = float(self.table.power(c2)), float(np.mean((c2 - self.lower) / self.span))
+            self._row_values[key] = row
+        return row
+
+    def _CandidateIndex(self, c2) -> int:
+        """k of the candidate row c2 (−1 if it is none of them), computed once per row."""
+        key = tuple(float(v) for v in c2)
+        if key not in self._candidate_index:
+            self._candidate_index[key] = _RowIndex(self.candidates, c2)
+        return self._candidate_index[key]
+
     def BestOf(self, candidates, powers, path_index_limit: int | None = None):
         """The best feasible plan over the c2 ``candidates`` (rows) with exact ``powers`` [W],
-        each with its largest feasible grid c1 (at most ``path_index_limit``); None if none."""
+        each with its largest feasible grid c1 (at most ``path_index_limit``); None if none
+        (remembered for the step: a pure function of its arguments and the step's data)."""
+        key = (
+            tuple(tuple(float(v) for v in c2) for c2 in candidates),
+            tuple(float(g) for g in powers),
+            path_index_limit,
+            self._margin_rate,
+            self._faults_counted,
+        )
+        if key not in self._best_cache:
+            self._best_cache[key] = self._BestOf(candidates, powers, path_index_limit)
+        return self._best_cache[key]
+
+    def _BestOf(self, candidates, powers, path_index_limit):
         best, best_key = None, None
         for c2, power in zip(candidates, powers, strict=True):
             ok, end = self.FeasibleRow(float(power))
@@ -410,7 +468,7 @@ class MissionProblem:
             if not hits.size:
                 continue
             j = int(hits[-1])
-            u2 = float(np.mean((np.asarray(c2) - self.lower) / self.span))
+            u2 = self._Row(c2)[1]
             key = (round(self.Quality(j, u2), 12), float(end[j]))
             if best_key is None or key > best_key:
                 best_key = key
@@ -423,7 +481,7 @@ class MissionProblem:
         if not low.feasible:
             return low
         j, c2, end = self.BestOf(self.candidates, self.candidate_power)
-        k = _RowIndex(self.candidates, c2)
+        k = self._CandidateIndex(c2)
         return self._Decision(j, k, c2, end, True)
 
     def MapRelaxed(self, u2_relaxed) -> MissionDecision:
@@ -442,7 +500,7 @@ class MissionProblem:
             brackets.append(sorted({float(grid[max(i - 1, 0)]), float(grid[i])}))
         rows = [np.array(p) for p in itertools.product(*brackets)]
         rows.append(self.candidates[self.lowest_candidate])
-        powers = [self.table.power(r) for r in rows]
+        powers = [self._Row(r)[0] for r in rows]
         if not self.integer:
             rows.append(c_relaxed)
             powers.append(self.table.power(c_relaxed))
@@ -460,13 +518,39 @@ class MissionProblem:
                         n = np.array(c2, dtype=float)
                         n[d] = grid[i2]
                         neighbours.append(n)
-            found = self.BestOf([c2, *neighbours], [self.table.power(r) for r in [c2, *neighbours]])
+            found = self.BestOf([c2, *neighbours], [self._Row(r)[0] for r in [c2, *neighbours]])
             if found is None or np.array_equal(found[1], c2):
                 break
             best = found
         j, c2, end = best
-        k = _RowIndex(self.candidates, c2)
+        k = self._CandidateIndex(c2)
         return self._Decision(j, k, c2, end, True)
+
+    def DeterminedDecision(self) -> MissionDecision | None:
+        """The answer of :meth:`MapRelaxed` when it does not depend on the relaxed c̃2, else None.
+
+        :meth:`MapRelaxed` reads c̃2 only through the grid points that bracket it: in each
+        dimension the lowest value alone (c̃2 at its lower bound) or a pair of neighbours. When
+        every combination of those leads to the same plan, that plan is the mapped answer of
+        any successful solve, so the NLP need not be solved. Integer tables only (otherwise the
+        relaxed point itself is a candidate); None when the lowest plan is infeasible.
+        """
+        if not self.integer or not self.Lowest().feasible:
+            return None
+        options = []
+        for grid, lo, span in zip(self.table.parameter_grids, self.lower, self.span, strict=True):
+            mids = 0.5 * (grid[:-1] + grid[1:])
+            options.append([0.0, *((mids - lo) / span)])
+        first = None
+        for u2 in itertools.product(*options):
+            d = self.MapRelaxed(np.array(u2))
+            if first is None:
+                first = d
+            elif d.path_index != first.path_index or not np.array_equal(
+                d.computation_parameters, first.computation_parameters
+            ):
+                return None
+        return first
 
     def KeepPathParameter(self, path_parameter: float) -> MissionDecision:
         """Failed-solve answer: c1 kept (the largest grid value not above it) with the best c2
@@ -485,7 +569,7 @@ class MissionProblem:
         if best is None:
             best = self.BestOf(self.candidates, self.candidate_power, j)
         j, c2, end = best
-        return self._Decision(j, _RowIndex(self.candidates, c2), c2, end, True)
+        return self._Decision(j, self._CandidateIndex(c2), c2, end, True)
 
     # -- smooth model of the NLP ---------------------------------------------------------------
 

@@ -134,9 +134,10 @@ class PaperPolicy(PlannerPolicy):
 
 
 FALLBACK_DROP = 0.01
-"""With ``planner.reserve: risk`` and ``after_drop: lowest``, a SoC more than this below the
-mpc's one-step prediction [-] is a drop: from then on the policy flies the lowest plan (the
-fallback its excess risk assumes, :mod:`eaplan_drake.planning.risk`)."""
+"""With ``planner.reserve: risk``, a SoC more than this below the mpc's one-step prediction [-]
+is a drop: the policy opens the next, halved, risk budget anchored at that state, or, with
+``after_drop: lowest``, flies the lowest plan from then on (the fallback its excess risk
+assumes, :mod:`eaplan_drake.planning.risk`)."""
 
 
 class MpcPolicy(PlannerPolicy):
@@ -151,38 +152,52 @@ class MpcPolicy(PlannerPolicy):
         self.problem = problem
         self.program = MissionProgram(problem)
         p = problem.params
-        self._falls_back = p.reserve == "risk" and p.after_drop == "lowest"
+        self._risk = p.reserve == "risk"
+        self._falls_back = self._risk and p.after_drop == "lowest"
+        self._budget = float(p.risk) if self._risk else 0.0
 
     def InitialMemory(self) -> np.ndarray:
         memory = np.zeros(self.program.variables.size)
-        if self._falls_back:  # + [SoC predicted for the next step (-1: none), fallen back]
-            memory = np.concatenate((memory, [-1.0, 0.0]))
+        if self._risk:  # + [SoC predicted for the next step, drops seen, anchor end, margin]
+            memory = np.concatenate((memory, [-1.0, 0.0, -1.0, 0.0]))
         return memory
 
+    def Budget(self, drops: int) -> float:
+        """ε_k = ε / 2^(k+1) [-]: the excess risk the policy may spend after k detected drops
+        (``reserve: risk``); summed over any number of drops it is at most ε."""
+        return self._budget / 2.0 ** (int(drops) + 1)
+
     def Plan(self, observation, memory) -> PlannerDecision:
-        if not self._falls_back:
+        if not self._risk:
             return self._Plan(observation, memory)
         o, pb = observation, self.problem
         if not _Finite(o):
             return _InvalidInput(pb, memory)
-        predicted, fallen = float(memory[-2]), bool(memory[-1] > 0.5)
-        fallen = fallen or (predicted >= 0.0 and o.soc < predicted - FALLBACK_DROP)
-        if fallen:
+        predicted, drops, anchor_end, anchor_margin = (float(v) for v in memory[-4:])
+        if predicted >= 0.0 and o.soc < predicted - FALLBACK_DROP:
+            drops, anchor_end = drops + 1.0, -1.0  # a new budget, anchored at this state
+        if self._falls_back and drops > 0.0:
             pb.SetObservation(o)
             low = pb.Lowest()
             d = PlannerDecision(
                 low.path_parameter,
                 low.computation_parameters,
-                memory[:-2],
+                memory[:-4],
                 True,
                 bool(low.feasible) or pb.NominallyFeasible(),
                 "after a SoC drop: the lowest plan to the end",
                 **_Prediction(pb, low),
             )
         else:
-            d = self._Plan(o, memory[:-2])
+            anchor = None if anchor_end < 0.0 else (anchor_end - float(o.time), anchor_margin)
+            pb.SetRiskBudget(self.Budget(drops), anchor)
+            d = self._Plan(o, memory[:-4])
+            if anchor_end < 0.0:
+                tau_0, m_0 = pb.lowest_risk_state
+                anchor_end, anchor_margin = float(o.time) + tau_0, m_0
         power = float(pb.table.power(np.asarray(d.computation_parameters, dtype=float)))
-        d.memory = np.concatenate((d.memory, [float(pb.SocAt(power, pb.step)), float(fallen)]))
+        state = [float(pb.SocAt(power, pb.step)), drops, anchor_end, anchor_margin]
+        d.memory = np.concatenate((d.memory, state))
         return d
 
     def _Plan(self, observation, memory) -> PlannerDecision:
@@ -204,6 +219,20 @@ class MpcPolicy(PlannerPolicy):
                 if nominal
                 else "infeasible: the lowest plan ends below reserve + margin",
                 **_Prediction(pb, low),
+            )
+        determined = pb.DeterminedDecision()
+        if determined is not None:
+            # Every relaxed answer maps to this plan (the mapping reads c̃2 only through its
+            # bracketing grid points): no solve can change it, so none is run. This also
+            # covers a feasible set of (nearly) one point, where interior-point solvers stall.
+            return PlannerDecision(
+                determined.path_parameter,
+                determined.computation_parameters,
+                memory,
+                True,
+                True,
+                "determined without a solve",
+                **_Prediction(pb, determined),
             )
         t0 = time.perf_counter()
         # From the warm start, then (deterministically) from the lowest plan, which is feasible,

@@ -24,6 +24,24 @@ alone costs more than ε). The mpc's constraint (1) then reads b(t_rem(c1_j); c2
 m_floor + z s_b σ t + m_req(t_rem(c1_j)) in place of the fixed fault reserve. The lowest plan
 itself always meets it (its R is 0, so m_req(τ_0) ≤ m_0): the constraint never removes the
 fallback, and recursive feasibility holds as with the fixed reserve.
+
+**One budget per mission, not per decision.** Measured from the lowest plan of the *current*
+state, R lets every step spend ε anew: a plan that spent its ε leaves a thinner lowest plan, from
+which the next step measures (and spends) again, and the mission's excess failure rate climbs
+above ε (8.8 % at ε = 0.05 on 57 feasible worlds). The mpc therefore anchors the baseline where a
+budget opens (:class:`~eaplan_drake.planning.policies.MpcPolicy`): with (τ_a, m_a) the lowest plan
+as it stood then (τ_a counted down with the clock), the excess is measured from
+
+    P_base = min(P(F_0), P(S(τ_a) > m_a))         (``baseline_failure`` of :meth:`RequiredMargin`)
+
+so spending never lowers what later steps count as the world's own risk (and a better estimate of
+the world is used when it is better). The lowest plan keeps R = 0 (the fallback stays
+admissible). Before the first drop the budget is ε_0 = ε/2; a detected drop (the SoC more
+than :data:`~eaplan_drake.planning.policies.FALLBACK_DROP` below the one-step prediction) opens
+the next, ε_k = ε/2^(k+1), anchored at the state after the drop: summed over any number of
+drops, the budgets stay within ε. With
+``after_drop: lowest`` the aircraft flies the lowest plan after the first drop instead (A3 of
+:mod:`eaplan_drake.planning.risk` exactly).
 """
 
 import functools
@@ -165,11 +183,22 @@ class ExcessRiskTable:
         density = mean_p[..., None] * np.exp(-mean_p[..., None] * _U)
         return np.sum(_W * density * tail, axis=-1) + np.exp(-mean_p) * (np.asarray(m_p) < 0.0)
 
-    def RequiredMargin(self, plan_time, lowest_time: float, lowest_margin: float, eps: float):
+    def RequiredMargin(
+        self,
+        plan_time,
+        lowest_time: float,
+        lowest_margin: float,
+        eps: float,
+        baseline_failure: float | None = None,
+    ):
         """m_req(τ_p) [-] for each plan time τ_p [s]: the smallest m_p ≤ m_0 with R ≤ ``eps``,
         to m_0 / 32² (two stages of 32 margins each, rounded up: conservative, deterministic);
         0 if m_p = 0 already is; +inf if not even m_0 is. With m_0 ≤ 0 (the lowest plan fails
-        without any fault) it is 0: nothing to protect."""
+        without any fault) it is 0: nothing to protect.
+
+        ``baseline_failure``: the failure probability [-] the excess is measured from when it is
+        below the lowest plan's own P(F_0) (the mission's anchor, see the module docstring):
+        R = P(F_p) − min(P(F_0), baseline), never less conservative than against P(F_0)."""
         tau_p = np.asarray(plan_time, dtype=float).reshape(-1)
         m_0 = float(lowest_margin)
         if m_0 <= 0.0 or tau_p.size == 0:
@@ -179,6 +208,8 @@ class ExcessRiskTable:
         shape = (tau_p.size, _SEARCH + 1)
         tau_0, lowest = np.full(shape, float(lowest_time)), np.full(shape, m_0)
         fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
+        if baseline_failure is not None:
+            fail_0 = np.minimum(fail_0, float(baseline_failure))
         for stage in range(2):
             trial = lo[:, None] + width[:, None] * np.arange(_SEARCH + 1) / _SEARCH
             tau = np.broadcast_to(tau_p[:, None], shape)
