@@ -41,7 +41,7 @@ from eaplan_drake.output.reference import (  # noqa: E402
     CompareTable,
 )
 from eaplan_drake.rates import RATE_PRESETS  # noqa: E402
-from eaplan_drake.registry import POLICIES  # noqa: E402
+from eaplan_drake.registry import POLICIES, POWER_LOG_READERS  # noqa: E402
 
 __all__ = ["MakeParser", "main"]
 
@@ -337,7 +337,8 @@ def _StudyReport(args) -> int:
 def _Fit(args) -> int:
     from eaplan_drake.files import AtomicWrite
     from eaplan_drake.logfit.fit import FRAGMENT_ORDERS, FitPowerLog, PlotLogFit
-    from eaplan_drake.logfit.powerlog import PowerLogError, ReadPeriodLog, ReadPowerLog
+    from eaplan_drake.logfit.powerlog import PowerLogError, ReadPeriodLog
+    from eaplan_drake.logfit.readers import ReadAnyPowerLog
     from eaplan_drake.logfit.result import NOISE_CRITERIA_TEXT, SCENARIO_MAX_ORDER
     from eaplan_drake.logfit.scores import FormatScores
 
@@ -348,8 +349,9 @@ def _Fit(args) -> int:
         period_log = (
             ReadPeriodLog(args.period_log, args.period_log_step) if args.period_log else None
         )
-        log = ReadPowerLog(
+        log = ReadAnyPowerLog(
             args.log,
+            args.reader,
             time_column=args.time_column,
             power_column=args.power_column,
             voltage_column=args.voltage_column,
@@ -583,7 +585,17 @@ def _AddCertifyParser(sub) -> None:
 def _AddFitParser(sub) -> None:
     """The ``fit`` subcommand's arguments."""
     p = sub.add_parser("fit", help="fit the energy model to a power log; score its predictions")
-    p.add_argument("log", help="CSV: PX4 battery_status, Paparazzi energy log, or t/power columns")
+    p.add_argument(
+        "log",
+        help="CSV (PX4 battery_status, Paparazzi energy log, or t/power columns) or a PX4 ULog "
+        "(.ulg: its battery_status topic; [ulog] extra)",
+    )
+    p.add_argument(
+        "--reader",
+        choices=POWER_LOG_READERS.Names(),
+        default="",
+        help="how to read LOG (default: by its suffix, .ulg = ulog, else csv)",
+    )
     p.add_argument("--period", type=float, default=None, help="T [s] (default: estimated)")
     p.add_argument(
         "--period-log",
