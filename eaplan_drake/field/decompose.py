@@ -63,6 +63,8 @@ class Decomposition:
     """In the order of the sweep (by bottom, then left)."""
     trapezoids: int
     """Number of trapezoids the cells were joined from."""
+    convex: bool = True
+    """Whether the cells were kept convex (else monotone along the sweep)."""
 
 
 def _Rotation(theta_deg: float) -> np.ndarray:
@@ -195,14 +197,17 @@ def Decompose(field_polygon, theta_deg: float, *, convex: bool = True) -> Decomp
     for chain in done:
         ring = _Simplify(chain.Ring()) @ R  # back to the local frame
         cells.append(Cell(vertices=ring, bottom=chain.bottom, top=chain.top))
-    return Decomposition(theta_deg=theta, cells=tuple(cells), trapezoids=trapezoids)
+    return Decomposition(
+        theta_deg=theta, cells=tuple(cells), trapezoids=trapezoids, convex=bool(convex)
+    )
 
 
 def SweepLines(cell: Cell, theta_deg: float, spacing: float) -> list[np.ndarray]:
-    """The survey lines of a convex ``cell`` along θ [deg] at ``spacing`` x_d [m]: n = ⌈h/x_d⌉
-    chords of the cell (h = top − bottom) x_d apart, centred across it (x_d/2 from its bottom and
-    top when h is a multiple of x_d; one line in the middle of a cell lower than x_d); each a
-    (2, 2) array (start, end) [m], alternately left-to-right and back in the rotated frame."""
+    """The survey lines of a ``cell`` (convex, or monotone along the sweep) along θ [deg] at
+    ``spacing`` x_d [m]: n = ⌈h/x_d⌉ chords of the cell (h = top − bottom) x_d apart, centred
+    across it (x_d/2 from its bottom and top when h is a multiple of x_d; one line in the middle
+    of a cell lower than x_d); each a (2, 2) array (start, end) [m], alternately left-to-right and
+    back in the rotated frame."""
     if not (math.isfinite(spacing) and spacing > 0.0):
         raise ValueError(f"line spacing: must be finite and > 0 [m], got {spacing!r}")
     R = _Rotation(theta_deg)
@@ -248,11 +253,12 @@ def _Cost(field_polygon, theta, spacing, convex):
 
 
 def ChooseSweepDirection(
-    field_polygon, spacing: float, *, step_deg: float = 5.0, convex: bool = True
+    field_polygon, spacing: float, *, step_deg: float = 5.0, convex: bool = True, cost=None
 ) -> SweepChoice:
     """The sweep direction θ with the fewest survey lines at ``spacing`` x_d [m] (ties: the
     shortest total line length, then the smallest θ), among the directions of the field's edges
-    and the multiples of ``step_deg`` [deg] in [0, 180)."""
+    and the multiples of ``step_deg`` [deg] in [0, 180). ``cost(decomposition)``, when given,
+    replaces the number of lines (e.g. the length of the route flown over the cells)."""
     Require("shapely")
     rings = [np.asarray(field_polygon.exterior.coords)]
     rings += [np.asarray(h.coords) for h in field_polygon.interiors]
@@ -265,7 +271,7 @@ def ChooseSweepDirection(
     best = None
     for theta in sorted(angles):
         d, n, length = _Cost(field_polygon, theta, spacing, convex)
-        key = (n, round(length, 6), theta)
+        key = (n if cost is None else cost(d), n, round(length, 6), theta)
         if best is None or key < best[0]:
             best = (key, d, n, length)
     _, d, n, length = best
