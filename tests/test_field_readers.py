@@ -220,3 +220,20 @@ def test_a_field_narrower_than_one_line_is_refused(tmp_path):
     path = WriteGeoJson(tmp_path, {"type": "Polygon", "coordinates": [Closed(ring)]})
     with pytest.raises(FieldError, match=r"too small for one survey line: 4\.00 m .* 10 m"):
         ReadField(path, min_width=10.0)
+
+
+def test_without_the_field_extra_reading_is_one_line_naming_it(tmp_path, monkeypatch, capsys):
+    import sys
+
+    from eaplan_drake.cli import main
+    from eaplan_drake.errors import MissingExtraError
+
+    path = WriteGeoJson(tmp_path, {"type": "Polygon", "coordinates": [Closed(Square(100.0))]})
+    monkeypatch.setitem(sys.modules, "shapely", None)  # import shapely now raises ImportError
+    with pytest.raises(MissingExtraError, match=r"fields need shapely, from the \[field\] extra"):
+        ReadField(path)
+    assert main(["plan", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err.startswith("eaplan-drake: missing extra: fields need shapely") and err.count("\n") == 1
+    )

@@ -130,3 +130,17 @@ def test_fit_reads_a_ulog_like_the_csv(tmp_path, capsys):
     assert code == 0, out.err
     assert "flight.ulg (ULog battery_status[0])" in out.out
     assert (tmp_path / "fit" / "fit.yaml").is_file()
+
+
+def test_without_pyulog_a_ulog_is_one_line_naming_the_extra(tmp_path, monkeypatch):
+    import sys
+
+    from eaplan_drake.errors import MissingExtraError
+
+    _, _, _, rows = BatteryRows()
+    path = WriteULog(tmp_path / "f.ulg", {"battery_status": (BATTERY_FIELDS, rows)})
+    monkeypatch.setitem(sys.modules, "pyulog", None)
+    with pytest.raises(
+        MissingExtraError, match=r"needs pyulog: pip install 'eaplan-drake\[ulog\]'"
+    ):
+        ReadULog(path)
