@@ -427,6 +427,7 @@ def _Plan(args) -> int:
         FormatFieldPlan,
         LineSpacing,
         LowestPlanEnergy,
+        LowestPlanRisk,
         MakeFieldPlan,
         SaveFieldPlan,
         Summary,
@@ -446,7 +447,9 @@ def _Plan(args) -> int:
     origin = _ParseOrigin(args.origin) if args.origin else None
     field = ReadField(args.field, index=args.polygon, origin=origin, min_width=spacing)
     plan = MakeFieldPlan(field, spacing, coverage.min_turning_radius, theta_deg=args.sweep_deg)
-    summary = Summary(plan, LowestPlanEnergy(plan, scenario))
+    energy = LowestPlanEnergy(plan, scenario)
+    summary = Summary(plan, energy)
+    summary["lowest_plan_risk"] = LowestPlanRisk(energy, scenario)
     summary["scenario"] = scenario.name
     summary["path_parameter_c1"] = c1
     out = Path(args.out) / Path(args.field).stem

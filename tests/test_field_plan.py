@@ -115,3 +115,26 @@ def test_plan_help_imports_no_pydrake():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60
     )
     assert out.stdout.strip().splitlines()[-1] == "False False"
+
+
+def test_the_pre_flight_fault_risk_of_the_lowest_plan(tmp_path, capsys):
+    from eaplan_drake.planning.risk import FaultModel, TotalDropTail, UniformDrops
+
+    assert main(["plan", SHIPPED, "--out", str(tmp_path)]) == 0
+    assert "fault risk      P(drops > margin)" in capsys.readouterr().out
+    summary = json.loads((tmp_path / "funen_field" / "summary.json").read_text())
+    e, r = summary["lowest_plan"], summary["lowest_plan_risk"]
+    model = FaultModel(0.003, UniformDrops(0.0, 0.15))  # the default planner.fault_model
+    margin = e["final_soc"] - e["reserve_soc"]
+    assert r["margin"] == pytest.approx(margin, abs=1e-12)
+    assert r["failure_probability"] == pytest.approx(
+        TotalDropTail(model, e["time"], margin), abs=1e-12
+    )
+    m = r["margin_at_risk"]  # the smallest margin that keeps the risk at ε = 0.05
+    assert TotalDropTail(model, e["time"], m) <= 0.05 < TotalDropTail(model, e["time"], m - 1e-6)
+    # without faults there is no risk
+    assert (
+        main(["plan", SHIPPED, "--out", str(tmp_path), "--set", "planner.fault_model.rate=0"]) == 0
+    )
+    r0 = json.loads((tmp_path / "funen_field" / "summary.json").read_text())["lowest_plan_risk"]
+    assert r0["failure_probability"] == 0.0 and r0["margin_at_risk"] == 0.0

@@ -11,6 +11,7 @@ models and no flight: motion power P_0 + P_2 ψ̇² (:mod:`eaplan_drake.flight.p
 on turns, the computation table's power at its lowest parameters g(c̲2), and the battery model's
 SoC rate ḃ(y) integrated leg by leg from ``battery.initial_soc``. At c̲1 and c̲2 this is the
 paper's static lowest plan, without wind and without the approach to the first line.
+:func:`LowestPlanRisk` adds its pre-flight fault risk under ``planner.fault_model``.
 
 Lengths in m, times in s, powers in W, energies in J, angles in degrees.
 """
@@ -29,6 +30,7 @@ __all__ = [
     "FormatFieldPlan",
     "LineSpacing",
     "LowestPlanEnergy",
+    "LowestPlanRisk",
     "MakeFieldPlan",
     "PlotFieldPlan",
     "SaveFieldPlan",
@@ -127,6 +129,26 @@ def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
     }
 
 
+def LowestPlanRisk(energy: dict, scenario) -> dict:
+    """The pre-flight risk of the lowest plan under ``scenario``'s ``planner.fault_model``
+    (:mod:`eaplan_drake.planning.risk`): the probability P(S(τ_0) > m_0) that the SoC drops
+    during its time τ_0 [s] exceed its margin m_0 = final SoC − reserve [-] (1 when m_0 < 0), and
+    the margin at risk: the smallest margin m with P(S(τ_0) > m) <= ε = ``planner.risk``."""
+    from eaplan_drake.planning.risk import MarginAtRisk, TotalDropTail
+    from eaplan_drake.planning.risk_margin import FaultModelFromParams
+
+    model = FaultModelFromParams(scenario.planner.fault_model)
+    eps = float(scenario.planner.risk)
+    tau, margin = float(energy["time"]), float(energy["final_soc"] - energy["reserve_soc"])
+    return {
+        "fault_rate": model.rate,
+        "risk": eps,
+        "margin": margin,
+        "failure_probability": float(TotalDropTail(model, tau, margin)),
+        "margin_at_risk": float(MarginAtRisk(model, tau, eps)),
+    }
+
+
 def Summary(plan: FieldPlan, energy: dict | None = None) -> dict:
     """The plan's numbers as a JSON-ready dict."""
     route, d = plan.route, plan.choice.decomposition
@@ -192,6 +214,19 @@ def FormatFieldPlan(summary: dict) -> str:
             + ("" if margin >= 0.0 else ": below the reserve, the survey does not fit")
             + ")",
         ]
+    r = s.get("lowest_plan_risk")
+    if r is not None:
+        ok = r["margin"] >= r["margin_at_risk"]
+        lines.append(
+            f"fault risk      P(drops > margin) = {r['failure_probability']:.3g} at "
+            f"{r['fault_rate']:g} drops/s (planner.fault_model); margin at risk "
+            f"{r['margin_at_risk']:.3f} for ε = {r['risk']:g}: "
+            + (
+                "the margin covers it"
+                if ok
+                else f"short by {r['margin_at_risk'] - r['margin']:.3f}"
+            )
+        )
     return "\n".join(lines)
 
 
