@@ -15,7 +15,9 @@ The tables:
 - :data:`PLAN_SOURCES` (``coverage.plan_file`` set or not): ``(scenario, initial_c1) →
   PlanSource``;
 - :data:`BATTERY_MODELS` (``battery.model``): ``(battery) → BatteryModel``, the SoC arithmetic
-  that both the battery system and the planner's prediction call.
+  that both the battery system and the planner's prediction call;
+- :data:`POWER_LOG_READERS` (``fit --reader``, else by the log's suffix):
+  ``(path, **options) → PowerLog``.
 
 A new choice is its module plus one line here (or, from Python, :meth:`Registry.Register`).
 """
@@ -30,6 +32,7 @@ __all__ = [
     "BATTERY_MODELS",
     "PLAN_SOURCES",
     "POLICIES",
+    "POWER_LOG_READERS",
     "Registry",
 ]
 
@@ -128,3 +131,13 @@ BATTERY_MODELS = Registry(
     },
 )
 """``battery.model``: the battery models (:mod:`eaplan_drake.energy.battery`)."""
+
+POWER_LOG_READERS = Registry(
+    "fit --reader",
+    {
+        "csv": "eaplan_drake.logfit.powerlog:ReadPowerLog",
+        "ulog": "eaplan_drake.logfit.ulog:ReadULog",
+    },
+)
+"""``fit --reader`` (default: by the log's suffix, :mod:`eaplan_drake.logfit.readers`): the
+power-log readers, ``(path, **options) → PowerLog``."""

@@ -17,6 +17,7 @@ from eaplan_drake.registry import (
     BATTERY_MODELS,
     PLAN_SOURCES,
     POLICIES,
+    POWER_LOG_READERS,
     Registry,
 )
 from eaplan_drake.simulation import Simulate
@@ -87,7 +88,8 @@ def test_the_shipped_tables_name_every_choice():
     assert AIRCRAFT_MODELS.Names() == ("continuous", "exact_arc")
     assert PLAN_SOURCES.Names() == ("zamboni", "plan_file")
     assert BATTERY_MODELS.Names() == ("rint",)
-    for registry in (POLICIES, AIRCRAFT_MODELS, PLAN_SOURCES, BATTERY_MODELS):
+    assert POWER_LOG_READERS.Names() == ("csv", "ulog")
+    for registry in (POLICIES, AIRCRAFT_MODELS, PLAN_SOURCES, BATTERY_MODELS, POWER_LOG_READERS):
         for name in registry:
             assert callable(registry.Factory(name)), (registry.key, name)
     with pytest.raises(ScenarioError, match=r"^battery\.model: must be one of rint, got 'lipo'"):

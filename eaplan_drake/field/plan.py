@@ -1,0 +1,322 @@
+"""A survey plan over a field read from a file: cells, sweep direction, route, time and energy
+at the lowest plan, the figure, and the files the ``plan`` command writes.
+
+:func:`MakeFieldPlan` decomposes the field into boustrophedon cells, convex or monotone,
+whichever flies shorter (:func:`~eaplan_drake.field.decompose.Decompose`), for the sweep
+direction whose route
+(:func:`~eaplan_drake.field.route.MakeRoute`) is shortest, i.e. the quickest survey in still air
+(or for the stated θ), at the line spacing x_d and the smallest turning radius r_min of the
+scenario's ``coverage``. :func:`LowestPlanEnergy` predicts that survey with the scenario's own
+models and no flight: motion power P_0 + P_2 ψ̇² (:mod:`eaplan_drake.flight.plant`) with ψ̇ = v_a/R
+on turns, the computation table's power at its lowest parameters g(c̲2), and the battery model's
+SoC rate ḃ(y) integrated leg by leg from ``battery.initial_soc``. At c̲1 and c̲2 this is the
+paper's static lowest plan, without wind and without the approach to the first line.
+:func:`LowestPlanRisk` adds its pre-flight fault risk under ``planner.fault_model``.
+
+Lengths in m, times in s, powers in W, energies in J, angles in degrees.
+"""
+
+import dataclasses as dc
+import math
+
+import numpy as np
+
+from eaplan_drake.field.decompose import ChooseSweepDirection, Decompose, SweepChoice, SweepLines
+from eaplan_drake.field.readers import Field
+from eaplan_drake.field.route import MakeRoute, Route, RouteEnergy
+
+__all__ = [
+    "FieldPlan",
+    "FormatFieldPlan",
+    "LineSpacing",
+    "LowestPlanEnergy",
+    "LowestPlanRisk",
+    "MakeFieldPlan",
+    "PlotFieldPlan",
+    "SaveFieldPlan",
+]
+
+
+@dc.dataclass(frozen=True)
+class FieldPlan:
+    """A field's cells and route."""
+
+    field: Field
+    choice: SweepChoice
+    """The decomposition for the chosen θ and its line count."""
+    route: Route
+    chosen_by: str
+    """How θ was chosen (one line)."""
+
+
+def LineSpacing(coverage, c1: float) -> float:
+    """The spacing [m] of the Zamboni-like lines at path parameter c1 [m²]: the shift per
+    repetition d = 2 r1 − 2 r2(c1), r1 = r + x_d/2, r2 = sqrt(r² + c1) (paper 003 Eq. 14;
+    :mod:`eaplan_drake.flight.coverage`), x_d at c1 = 0; ``coverage`` a
+    :class:`~eaplan_drake.params.CoverageParams`."""
+    from eaplan_drake.flight.coverage import TurningRadius2
+
+    r, x_d = float(coverage.turning_radius), float(coverage.swath_spacing)
+    return 2.0 * (r + 0.5 * x_d) - 2.0 * TurningRadius2(float(c1), r)
+
+
+def MakeFieldPlan(
+    field: Field,
+    spacing: float,
+    min_turning_radius: float,
+    *,
+    theta_deg: float | None = None,
+    cells: str = "best",
+) -> FieldPlan:
+    """The plan over ``field`` at line spacing x_d = ``spacing`` and turns of at least r_min =
+    ``min_turning_radius`` [m]; θ = ``theta_deg`` [deg from east] or, when None, the direction
+    with the shortest route; ``cells`` ``convex``, ``monotone`` (the classic boustrophedon cells,
+    fewer and wider) or ``best`` (whichever gives the shorter route)."""
+    kinds = {"convex": (True,), "monotone": (False,), "best": (True, False)}
+    if cells not in kinds:
+        raise ValueError(f"cells: must be one of {', '.join(kinds)}, got {cells!r}")
+    if theta_deg is not None and not math.isfinite(theta_deg):
+        raise ValueError(f"--sweep-deg: must be a finite angle [deg], got {theta_deg!r}")
+    polygon = field.Polygon()
+
+    def length(d):
+        return round(MakeRoute(d, spacing, min_turning_radius).Length(), 6)
+
+    best = None
+    for convex in kinds[cells]:
+        if theta_deg is None:
+            choice = ChooseSweepDirection(polygon, spacing, cost=length, convex=convex)
+            chosen_by = f"shortest route of {choice.candidates} directions (edges and every 5°)"
+        else:
+            d = Decompose(polygon, theta_deg, convex=convex)
+            lines = [ln for c in d.cells for ln in SweepLines(c, d.theta_deg, spacing)]
+            total = float(sum(np.linalg.norm(ln[1] - ln[0]) for ln in lines))
+            choice = SweepChoice(d, len(lines), total, 1)
+            chosen_by = "given (--sweep-deg)"
+        route = MakeRoute(choice.decomposition, spacing, min_turning_radius)
+        if best is None or route.Length() < best.route.Length() - 1e-9:
+            best = FieldPlan(field, choice, route, chosen_by)
+    return best
+
+
+def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
+    """Time [s], energy [J], mean power [W] and SoC of flying ``plan`` at the lowest plan with
+    ``scenario``'s vehicle, computation table and battery (see the module docstring)."""
+    from eaplan_drake.energy.computation import LoadComputationTable
+    from eaplan_drake.flight.plant import MotionPowerCoefficients
+    from eaplan_drake.registry import BATTERY_MODELS
+
+    vehicle = scenario.vehicle
+    coefficients = MotionPowerCoefficients(vehicle.airspeed, vehicle.motion_power)
+    table = LoadComputationTable(scenario.computation.table)
+    g = float(table.power(table.lower))
+    time, energy, mean = RouteEnergy(plan.route, vehicle.airspeed, coefficients, g)
+    battery = BATTERY_MODELS.Make(scenario.battery.model, scenario.battery)
+    soc = float(scenario.battery.initial_soc)
+    p0, p2 = coefficients
+    for leg in plan.route.legs:
+        rate = vehicle.airspeed / leg.radius if leg.kind == "turn" else 0.0
+        soc = battery.SocAfter(soc, p0 + p2 * rate * rate + g, leg.length / vehicle.airspeed)
+    return {
+        "time": time,
+        "energy": energy,
+        "mean_power": mean,
+        "computation_power": g,
+        "computation_parameters": [float(c) for c in table.lower],
+        "initial_soc": float(scenario.battery.initial_soc),
+        "final_soc": soc,
+        "reserve_soc": float(scenario.battery.reserve_soc),
+    }
+
+
+def LowestPlanRisk(energy: dict, scenario) -> dict:
+    """The pre-flight risk of the lowest plan under ``scenario``'s ``planner.fault_model``
+    (:mod:`eaplan_drake.planning.risk`): the probability P(S(τ_0) > m_0) that the SoC drops
+    during its time τ_0 [s] exceed its margin m_0 = final SoC − reserve [-] (1 when m_0 < 0), and
+    the margin at risk: the smallest margin m with P(S(τ_0) > m) <= ε = ``planner.risk``."""
+    from eaplan_drake.planning.risk import MarginAtRisk, TotalDropTail
+    from eaplan_drake.planning.risk_margin import FaultModelFromParams
+
+    model = FaultModelFromParams(scenario.planner.fault_model)
+    eps = float(scenario.planner.risk)
+    tau, margin = float(energy["time"]), float(energy["final_soc"] - energy["reserve_soc"])
+    return {
+        "fault_rate": model.rate,
+        "risk": eps,
+        "margin": margin,
+        "failure_probability": float(TotalDropTail(model, tau, margin)),
+        "margin_at_risk": float(MarginAtRisk(model, tau, eps)),
+    }
+
+
+def Summary(plan: FieldPlan, energy: dict | None = None) -> dict:
+    """The plan's numbers as a JSON-ready dict."""
+    route, d = plan.route, plan.choice.decomposition
+    out = {
+        "field": plan.field.source,
+        "origin_lon_lat": [plan.field.frame.lon, plan.field.frame.lat],
+        "area_m2": plan.field.area,
+        "holes": len(plan.field.holes),
+        "notes": list(plan.field.notes),
+        "cells": len(d.cells),
+        "cell_kind": "convex" if d.convex else "monotone",
+        "trapezoids": d.trapezoids,
+        "sweep_deg_from_east": d.theta_deg,
+        "line_bearing_deg": (90.0 - d.theta_deg) % 180.0,
+        "sweep_chosen_by": plan.chosen_by,
+        "line_spacing_m": route.spacing,
+        "min_turning_radius_m": route.min_turning_radius,
+        "lines": route.Count("line"),
+        "turns": route.Count("turn"),
+        "loops": route.loops,
+        "transits": route.Count("transit"),
+        "line_length_m": route.Length("line"),
+        "turn_length_m": route.Length("turn"),
+        "transit_length_m": route.Length("transit"),
+        "path_length_m": route.Length(),
+    }
+    if energy is not None:
+        out["lowest_plan"] = energy
+    return out
+
+
+def FormatFieldPlan(summary: dict) -> str:
+    """The summary as the ``plan`` command prints it."""
+    s = summary
+    lines = [
+        f"field           {s['field']} ({s['area_m2'] / 1e4:.2f} ha, {s['holes']} holes)",
+        f"origin          lon {s['origin_lon_lat'][0]:.6f}, lat {s['origin_lon_lat'][1]:.6f}",
+    ]
+    lines += [f"note            {n}" for n in s["notes"]]
+    lines += [
+        f"cells           {s['cells']} {s['cell_kind']} boustrophedon cells (from "
+        f"{s['trapezoids']} trapezoids)",
+        f"sweep           lines at {s['sweep_deg_from_east']:.1f}° from east (bearing "
+        f"{s['line_bearing_deg']:.1f}°); {s['sweep_chosen_by']}",
+        f"lines           {s['lines']} at {s['line_spacing_m']:.2f} m"
+        + (f" (c1 = {s['path_parameter_c1']:g} m²)" if "path_parameter_c1" in s else "")
+        + f", {s['line_length_m']:.0f} m",
+        f"turns           {s['turns']} (r >= {s['min_turning_radius_m']:.2f} m; {s['loops']} "
+        f"loops where lines are closer than 2 r_min), {s['turn_length_m']:.0f} m",
+        f"transits        {s['transits']} between cells, {s['transit_length_m']:.0f} m",
+        f"path length     {s['path_length_m']:.0f} m",
+    ]
+    e = s.get("lowest_plan")
+    if e is not None:
+        margin = e["final_soc"] - e["reserve_soc"]
+        lines += [
+            f"lowest plan     {e['time']:.0f} s ({e['time'] / 60:.1f} min) in still air, "
+            f"{e['energy'] / 1e3:.1f} kJ, mean {e['mean_power']:.1f} W (computation "
+            f"{e['computation_power']:.1f} W at c2 = "
+            f"{', '.join(f'{c:g}' for c in e['computation_parameters'])})",
+            f"battery         SoC {e['initial_soc']:.3f} -> {e['final_soc']:.3f} (reserve "
+            f"{e['reserve_soc']:.2f}: margin {margin:+.3f}"
+            + ("" if margin >= 0.0 else ": below the reserve, the survey does not fit")
+            + ")",
+        ]
+    r = s.get("lowest_plan_risk")
+    if r is not None:
+        ok = r["margin"] >= r["margin_at_risk"]
+        lines.append(
+            f"fault risk      P(drops > margin) = {r['failure_probability']:.3g} at "
+            f"{r['fault_rate']:g} drops/s (planner.fault_model); margin at risk "
+            f"{r['margin_at_risk']:.3f} for ε = {r['risk']:g}: "
+            + (
+                "the margin covers it"
+                if ok
+                else f"short by {r['margin_at_risk'] - r['margin']:.3f}"
+            )
+        )
+    return "\n".join(lines)
+
+
+def _Arc(leg, n: int = 48) -> np.ndarray:
+    c = np.asarray(leg.center)
+    a0 = math.atan2(leg.start[1] - c[1], leg.start[0] - c[0])
+    sign = 1.0 if leg.ccw else -1.0
+    a = a0 + sign * np.linspace(0.0, leg.angle, n)
+    return c + leg.radius * np.column_stack([np.cos(a), np.sin(a)])
+
+
+def PlotFieldPlan(plan: FieldPlan):
+    """A matplotlib ``Figure`` of the field, its cells and the route in the local frame, with a
+    north arrow and a scale bar."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Polygon as PolygonPatch
+
+    fig = Figure(figsize=(8.0, 7.0))
+    ax = fig.add_subplot()
+    field = plan.field
+    ax.add_patch(PolygonPatch(field.exterior, closed=True, fc="#e3f1d4", ec="#4d7a2a", lw=1.5))
+    for h in field.holes:
+        ax.add_patch(PolygonPatch(h, closed=True, fc="white", ec="#4d7a2a", lw=1.2, hatch="//"))
+    for k, cell in enumerate(plan.choice.decomposition.cells):
+        ax.add_patch(PolygonPatch(cell.vertices, closed=True, fill=False, ec="#888888", lw=0.8))
+        cx, cy = np.mean(cell.vertices, axis=0)
+        ax.text(cx, cy, str(k), color="#555555", fontsize=9, ha="center", va="center")
+    for leg in plan.route.legs:
+        if leg.kind == "line":
+            ax.plot(*np.array([leg.start, leg.end]).T, color="#1f5fbf", lw=0.8)
+        elif leg.kind == "turn":
+            ax.plot(*_Arc(leg).T, color="#e08a1e", lw=0.6)
+        else:
+            ax.plot(*np.array([leg.start, leg.end]).T, color="#444444", lw=0.8, ls="--")
+    ax.plot(*plan.route.legs[0].start, "o", color="#1f5fbf", ms=5, label="start")
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    span = max(x1 - x0, y1 - y0)
+    scale = 10 ** math.floor(math.log10(span / 4.0))
+    scale *= 5 if span / 4.0 >= 5 * scale else (2 if span / 4.0 >= 2 * scale else 1)
+    bx, by = x0 + 0.05 * (x1 - x0), y0 + 0.05 * (y1 - y0)
+    ax.plot([bx, bx + scale], [by, by], color="black", lw=3)
+    ax.text(bx + scale / 2, by + 0.015 * span, f"{scale:g} m", ha="center", va="bottom")
+    nx, ny = x1 - 0.06 * (x1 - x0), y1 - 0.16 * (y1 - y0)
+    ax.annotate(
+        "N",
+        xy=(nx, ny + 0.1 * span),
+        xytext=(nx, ny),
+        ha="center",
+        va="top",
+        fontsize=12,
+        fontweight="bold",
+        arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5},
+    )
+    d = plan.choice.decomposition
+    ax.set_title(
+        f"{len(d.cells)} cells, {plan.route.Count('line')} lines at {d.theta_deg:.1f}° from "
+        f"east, {plan.route.Length() / 1e3:.2f} km"
+    )
+    ax.set_xlabel("east [m]")
+    ax.set_ylabel("north [m]")
+    ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def SaveFieldPlan(
+    plan: FieldPlan, directory, *, summary: dict, altitude: float, cruise_speed: float
+) -> list:
+    """Writes ``directory`` as a whole (:func:`~eaplan_drake.files.ResultDirectory`): the three
+    missions (:func:`~eaplan_drake.field.missions.WriteMissions`), ``plan.png`` and
+    ``summary.json``; returns the paths written (in their final directory)."""
+    from pathlib import Path
+
+    from eaplan_drake.field.missions import WriteMissions
+    from eaplan_drake.files import AtomicWrite, ResultDirectory, StrictJson
+
+    final = Path(directory)
+    with ResultDirectory(final) as tmp:
+        written = list(
+            WriteMissions(
+                tmp, plan.route, plan.field, altitude=altitude, cruise_speed=cruise_speed
+            ).values()
+        )
+        fig = PlotFieldPlan(plan)
+        written.append(
+            AtomicWrite(tmp / "plan.png", lambda f: fig.savefig(f, format="png", dpi=120), True)
+        )
+        text = StrictJson(summary)
+        written.append(AtomicWrite(tmp / "summary.json", lambda f: f.write(text), False))
+    return [final / p.name for p in written]

@@ -1,0 +1,167 @@
+"""Missions out, read back: the QGroundControl plan (json and our field reader), the WPL 110 file
+(pymavlink's MAVWPLoader) and the Paparazzi flight plan (xml.etree and the structure of
+Paparazzi's flight_plan.dtd); geometry within 1 m."""
+
+import json
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+pytest.importorskip("shapely")
+pyproj = pytest.importorskip("pyproj")
+
+from eaplan_drake.field.decompose import ChooseSweepDirection  # noqa: E402
+from eaplan_drake.field.geodesy import LocalFrame  # noqa: E402
+from eaplan_drake.field.missions import (  # noqa: E402
+    MAV_CMD_NAV_LOITER_TURNS,
+    MAV_CMD_NAV_TAKEOFF,
+    MAV_CMD_NAV_WAYPOINT,
+    MissionItems,
+    WriteMissions,
+)
+from eaplan_drake.field.readers import FieldFromLocal, ReadField  # noqa: E402
+from eaplan_drake.field.route import MakeRoute  # noqa: E402
+
+FRAME = LocalFrame(10.3250, 55.4720)
+ALTITUDE = 60.0
+
+
+@pytest.fixture(scope="module")
+def survey(tmp_path_factory):
+    field = FieldFromLocal(
+        [(0, 0), (500, 0), (500, 400), (300, 400), (300, 200), (200, 200), (200, 400), (0, 400)],
+        [[(60, 60), (60, 140), (140, 140), (140, 60)]],
+        FRAME,
+    )
+    choice = ChooseSweepDirection(field.Polygon(), 10.0)
+    route = MakeRoute(choice.decomposition, 10.0, 62.45)
+    out = tmp_path_factory.mktemp("missions")
+    paths = WriteMissions(out, route, field, altitude=ALTITUDE, cruise_speed=15.0)
+    return field, route, paths
+
+
+def Expected(route, field):
+    """(command, local point) of every item after home."""
+    return [(i.command, np.array(i.local)) for i in MissionItems(route, field, altitude=ALTITUDE)]
+
+
+def Distances(frame, lonlat, local):
+    return np.linalg.norm(frame.ToLocal(lonlat) - np.asarray(local), axis=1)
+
+
+def test_the_qgc_plan_reads_back(survey):
+    field, route, paths = survey
+    plan = json.loads(paths["qgc_plan"].read_text())
+    assert plan["fileType"] == "Plan" and plan["version"] == 1
+    items = plan["mission"]["items"]
+    expected = Expected(route, field)[1:]
+    assert [it["command"] for it in items] == [c for c, _ in expected]
+    assert items[0]["command"] == MAV_CMD_NAV_TAKEOFF
+    lonlat = [[it["params"][5], it["params"][4]] for it in items]
+    assert Distances(FRAME, lonlat, [p for _, p in expected]).max() < 1.0
+    turns = [leg for leg in route.legs if leg.kind == "turn"]
+    loiters = [it for it in items if it["command"] == MAV_CMD_NAV_LOITER_TURNS]
+    assert len(loiters) == len(turns)
+    for it, leg in zip(loiters, turns, strict=True):
+        assert abs(it["params"][2]) == pytest.approx(leg.radius, abs=1e-3)
+        assert (it["params"][2] < 0) == leg.ccw
+        assert it["params"][0] == pytest.approx(leg.angle / (2 * math.pi), abs=1e-6)
+    assert all(it["params"][6] == ALTITUDE for it in items)
+    # the geofence is the field: our reader gets it back, hole included
+    back = ReadField(paths["qgc_plan"], origin=(FRAME.lon, FRAME.lat))
+    assert len(back.holes) == 1
+    assert np.abs(back.exterior - field.exterior).max() < 1.0
+    assert np.abs(back.holes[0] - field.holes[0]).max() < 1.0
+
+
+def test_the_wpl_file_reads_back_with_pymavlink(survey):
+    mavwp = pytest.importorskip("pymavlink.mavwp")
+    field, route, paths = survey
+    assert paths["wpl"].read_text().startswith("QGC WPL 110\n")
+    loader = mavwp.MAVWPLoader()
+    expected = Expected(route, field)
+    assert loader.load(str(paths["wpl"])) == len(expected)
+    wps = [loader.wp(i) for i in range(loader.count())]
+    assert [w.command for w in wps] == [c for c, _ in expected]
+    assert wps[0].current == 1 and wps[0].frame == 0
+    assert all(w.frame == 3 and w.z == pytest.approx(ALTITUDE) for w in wps[1:])
+    # pymavlink keeps MISSION_ITEM's float32 lat/lon: 0.5 m at worst here
+    lonlat = [[w.y, w.x] for w in wps]
+    assert Distances(FRAME, lonlat, [p for _, p in expected]).max() < 1.0
+    radii = [abs(w.param3) for w in wps if w.command == MAV_CMD_NAV_LOITER_TURNS]
+    assert min(radii) >= 62.45 - 1e-3
+
+
+# The structure of Paparazzi's conf/flight_plans/flight_plan.dtd that the export uses (the DTD
+# itself is GPL and not shipped): required attributes, and the children allowed, in order.
+REQUIRED = {
+    "flight_plan": {"name", "lat0", "lon0", "max_dist_from_home", "ground_alt", "security_height",
+                    "alt"},
+    "waypoint": {"name"},
+    "sector": {"name"},
+    "corner": {"name"},
+    "block": {"name"},
+    "go": {"wp"},
+    "circle": {"wp", "radius"},
+    "deroute": {"block"},
+}  # fmt: skip
+FLIGHT_PLAN_ORDER = ["header", "waypoints", "sectors", "variables", "modules", "includes",
+                     "exceptions", "blocks"]  # fmt: skip
+BLOCK_CHILDREN = {"exception", "while", "heading", "attitude", "manual", "go", "xyz", "set",
+                  "call", "call_once", "circle", "deroute", "stay", "follow", "for", "return",
+                  "eight", "oval", "home", "path"}  # fmt: skip
+
+
+def test_the_paparazzi_flight_plan_is_well_formed_and_follows_the_dtd(survey):
+    field, route, paths = survey
+    text = paths["paparazzi"].read_text()
+    assert '<!DOCTYPE flight_plan SYSTEM "flight_plan.dtd">' in text
+    root = ET.fromstring(text)
+    assert root.tag == "flight_plan"
+    for el in root.iter():
+        assert REQUIRED.get(el.tag, set()) <= set(el.attrib), el.tag
+    order = [c.tag for c in root]
+    assert order == sorted(order, key=FLIGHT_PLAN_ORDER.index) and "blocks" in order
+    names = [w.get("name") for w in root.find("waypoints")]
+    assert len(names) == len(set(names))
+    for el in root.iter():
+        for attr in ("wp", "from"):
+            if el.tag in ("go", "circle") and el.get(attr):
+                assert el.get(attr) in names
+    (sector,) = root.find("sectors")
+    corners = [c.get("name") for c in sector]
+    assert len(corners) >= 3 and set(corners) <= set(names)
+    blocks = {b.get("name"): b for b in root.find("blocks")}
+    for b in blocks.values():
+        assert {c.tag for c in b} <= BLOCK_CHILDREN
+        for c in b:
+            if c.tag == "deroute":
+                assert c.get("block") in blocks
+    # geometry: lines' ends and the turns' centres and radii
+    frame = LocalFrame(float(root.get("lon0")), float(root.get("lat0")))
+    wp = {w.get("name"): [float(w.get("lon")), float(w.get("lat"))] for w in root.find("waypoints")}
+    stages = list(blocks["Survey"])
+    goes = [s for s in stages if s.tag == "go" and s.get("from")]
+    lines = [leg for leg in route.legs if leg.kind == "line"]
+    assert len(goes) == len(lines)
+    for g, leg in zip(goes, lines, strict=True):
+        ends = [wp[g.get("from")], wp[g.get("wp")]]
+        assert Distances(frame, ends, [leg.start, leg.end]).max() < 1.0
+    circles = [s for s in stages if s.tag == "circle"]
+    turns = [leg for leg in route.legs if leg.kind == "turn"]
+    for c, leg in zip(circles, turns, strict=True):
+        assert Distances(frame, [wp[c.get("wp")]], [leg.center]).max() < 1.0
+        assert float(c.get("radius")) == pytest.approx(
+            -leg.radius if leg.ccw else leg.radius, abs=1e-3
+        )
+    corner_points = [wp[n] for n in corners]
+    assert Distances(frame, corner_points, field.exterior).max() < 1.0
+
+
+def test_a_bad_altitude_is_one_line(survey):
+    field, route, _ = survey
+    with pytest.raises(ValueError, match=r"altitude: must be > 0 \[m above home\], got -5"):
+        MissionItems(route, field, altitude=-5.0)
+    assert MAV_CMD_NAV_WAYPOINT == 16

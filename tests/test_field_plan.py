@@ -1,0 +1,140 @@
+"""The plan command on the shipped field: summary, files (missions, figure, summary) and their
+agreement; one line for a bad field or option; ``plan --help`` without pydrake."""
+
+import json
+import re
+import subprocess
+import sys
+from importlib import resources
+
+import numpy as np
+import pytest
+
+shapely = pytest.importorskip("shapely")
+pytest.importorskip("pyproj")
+
+from eaplan_drake.cli import main  # noqa: E402
+from eaplan_drake.field.decompose import Decompose, IsConvex  # noqa: E402
+from eaplan_drake.field.plan import LineSpacing  # noqa: E402
+from eaplan_drake.field.readers import ReadField  # noqa: E402
+from eaplan_drake.params import CoverageParams  # noqa: E402
+
+SHIPPED = str(resources.files("eaplan_drake") / "data" / "funen_field.geojson")
+
+
+def test_the_shipped_field_is_non_convex_with_a_hole():
+    field = ReadField(SHIPPED)
+    polygon = field.Polygon()
+    assert len(field.holes) == 1 and field.notes == ()
+    assert polygon.convex_hull.area > 1.05 * (polygon.area + shapely.Polygon(field.holes[0]).area)
+    assert 5e4 < field.area < 1e5  # 5 to 10 ha
+    d = Decompose(polygon, 30.0)
+    assert all(IsConvex(c.vertices) for c in d.cells)
+    assert sum(shapely.Polygon(c.vertices).area for c in d.cells) == pytest.approx(
+        polygon.area, rel=1e-6
+    )
+
+
+def test_line_spacing_is_x_d_at_c1_0_and_wider_at_the_lowest_plan():
+    coverage = CoverageParams()
+    assert LineSpacing(coverage, 0.0) == pytest.approx(10.0, abs=1e-12)
+    # 2 r1 − 2 r2(−1000) = 150 − 2 sqrt(3900)
+    assert LineSpacing(coverage, -1000.0) == pytest.approx(150.0 - 2.0 * 3900**0.5, abs=1e-12)
+
+
+def test_plan_prints_the_summary_and_writes_missions_figure_and_summary(tmp_path, capsys):
+    code = main(["plan", SHIPPED, "--out", str(tmp_path)])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    for key in ("cells", "sweep", "lines", "turns", "path length", "lowest plan", "battery"):
+        assert any(line.startswith(key) for line in out.out.splitlines()), key
+    folder = tmp_path / "funen_field"
+    names = {"mission.plan", "mission.waypoints", "mission.xml", "plan.png", "summary.json"}
+    assert {p.name for p in folder.iterdir()} == names
+    summary = json.loads((folder / "summary.json").read_text())
+    parts = summary["line_length_m"] + summary["turn_length_m"] + summary["transit_length_m"]
+    assert summary["path_length_m"] == pytest.approx(parts, rel=1e-12)
+    e = summary["lowest_plan"]
+    assert e["time"] == pytest.approx(summary["path_length_m"] / 15.0, rel=1e-12)
+    assert e["energy"] == pytest.approx(e["mean_power"] * e["time"], rel=1e-12)
+    assert 0.0 < e["final_soc"] < e["initial_soc"]
+    # the plan's geofence is the shipped field, within 1 m
+    field = ReadField(SHIPPED)
+    back = ReadField(folder / "mission.plan", origin=(field.frame.lon, field.frame.lat))
+    assert np.abs(back.exterior - field.exterior).max() < 1.0
+    assert np.abs(back.holes[0] - field.holes[0]).max() < 1.0
+    assert (folder / "plan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_given_sweep_direction_and_c1_are_used(tmp_path, capsys):
+    args = ["plan", SHIPPED, "--out", str(tmp_path), "--sweep-deg", "30", "--c1", "0"]
+    assert main(args) == 0
+    summary = json.loads((tmp_path / "funen_field" / "summary.json").read_text())
+    assert summary["sweep_deg_from_east"] == pytest.approx(30.0)
+    assert summary["line_spacing_m"] == pytest.approx(10.0)
+    assert "given (--sweep-deg)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--c1", "5"], r"--c1: must be in \[-1000, 0\]"),
+        (["--origin", "10.3"], r"--origin: expected LON,LAT"),
+        (["--altitude", "-1"], r"--altitude: must be in \(0, 10000\)"),
+        (["--set", "coverage.swath_spacing=-1"], r"coverage\.swath_spacing"),
+    ],
+)
+def test_a_bad_option_is_one_line(tmp_path, capsys, extra, message):
+    assert main(["plan", SHIPPED, "--out", str(tmp_path), *extra]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert re.search(message, err), err
+    assert not (tmp_path / "funen_field").exists()
+
+
+def test_a_bad_field_is_one_line_naming_it(tmp_path, capsys):
+    bad = tmp_path / "bad.geojson"
+    bad.write_text('{"type": "Polygon", "coordinates": [[[0, 0], [1, 1], [1, 0], [0, 1], [0, 0]]]}')
+    assert main(["plan", str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(bad) in err and "Self-intersection" in err
+    assert "Traceback" not in err
+
+
+def test_plan_help_imports_no_pydrake():
+    code = (
+        "import sys\n"
+        "from eaplan_drake.cli import main\n"
+        "try:\n"
+        "    main(['plan', '--help'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print('pydrake' in sys.modules, 'shapely' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60
+    )
+    assert out.stdout.strip().splitlines()[-1] == "False False"
+
+
+def test_the_pre_flight_fault_risk_of_the_lowest_plan(tmp_path, capsys):
+    from eaplan_drake.planning.risk import FaultModel, TotalDropTail, UniformDrops
+
+    assert main(["plan", SHIPPED, "--out", str(tmp_path)]) == 0
+    assert "fault risk      P(drops > margin)" in capsys.readouterr().out
+    summary = json.loads((tmp_path / "funen_field" / "summary.json").read_text())
+    e, r = summary["lowest_plan"], summary["lowest_plan_risk"]
+    model = FaultModel(0.003, UniformDrops(0.0, 0.15))  # the default planner.fault_model
+    margin = e["final_soc"] - e["reserve_soc"]
+    assert r["margin"] == pytest.approx(margin, abs=1e-12)
+    assert r["failure_probability"] == pytest.approx(
+        TotalDropTail(model, e["time"], margin), abs=1e-12
+    )
+    m = r["margin_at_risk"]  # the smallest margin that keeps the risk at ε = 0.05
+    assert TotalDropTail(model, e["time"], m) <= 0.05 < TotalDropTail(model, e["time"], m - 1e-6)
+    # without faults there is no risk
+    assert (
+        main(["plan", SHIPPED, "--out", str(tmp_path), "--set", "planner.fault_model.rate=0"]) == 0
+    )
+    r0 = json.loads((tmp_path / "funen_field" / "summary.json").read_text())["lowest_plan_risk"]
+    assert r0["failure_probability"] == 0.0 and r0["margin_at_risk"] == 0.0

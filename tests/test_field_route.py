@@ -1,0 +1,78 @@
+"""The route over a decomposed field: continuity, turn circles through their end points, the
+Zamboni-like order, and the time and energy against a hand computation."""
+
+import math
+
+import numpy as np
+import pytest
+
+shapely = pytest.importorskip("shapely")
+
+from eaplan_drake.field.decompose import Decompose  # noqa: E402
+from eaplan_drake.field.route import MakeRoute, RouteEnergy, ZamboniOrder  # noqa: E402
+
+U_WITH_HOLE = shapely.Polygon(
+    [(0, 0), (600, 0), (600, 500), (350, 500), (350, 250), (250, 250), (250, 500), (0, 500)],
+    [[(80, 80), (80, 160), (160, 160), (160, 80)]],
+)
+
+
+def test_zamboni_order_visits_every_line_once_and_jumps_far():
+    for n, jump in [(30, 15), (7, 3), (5, 15), (1, 4), (44, 13)]:
+        order = ZamboniOrder(n, jump)
+        assert sorted(order) == list(range(n))
+    assert ZamboniOrder(30, 14)[:5] == [0, 15, 1, 16, 2]  # the reference: x_d 10, r 70 m
+    jumps = np.abs(np.diff(ZamboniOrder(30, 14)))
+    assert jumps.min() >= 14
+
+
+@pytest.mark.parametrize("theta", [0.0, 90.0, 30.0])
+def test_the_route_is_continuous_and_its_turns_are_flyable(theta):
+    r_min = 62.45
+    d = Decompose(U_WITH_HOLE, theta)
+    route = MakeRoute(d, 10.0, r_min)
+    legs = route.legs
+    for a, b in zip(legs[:-1], legs[1:], strict=True):
+        np.testing.assert_allclose(a.end, b.start, atol=1e-9)
+    for leg in legs:
+        if leg.kind == "turn":
+            assert leg.radius >= r_min - 1e-9
+            for p in (leg.start, leg.end):  # the circle passes through both ends
+                assert np.hypot(*(np.subtract(p, leg.center))) == pytest.approx(
+                    leg.radius, abs=1e-6
+                )
+            assert leg.length == pytest.approx(leg.radius * leg.angle, rel=1e-12)
+            assert math.pi - 1e-9 <= leg.angle < 2 * math.pi
+    lines = route.Count("line")
+    assert route.Count("turn") == lines - sum(
+        1 for c in d.cells if True
+    )  # one per line but the last
+    assert route.Length() == pytest.approx(sum(leg.length for leg in legs), rel=1e-12)
+
+
+def test_lines_far_apart_are_joined_by_half_circles_tangent_to_them():
+    rect = shapely.Polygon([(0, 0), (300, 0), (300, 300), (0, 300)])  # 30 lines at 10 m
+    route = MakeRoute(Decompose(rect, 0.0), 10.0, 70.0)  # J = 14: r1 = 75 m, r2 = 70 m
+    turns = [leg for leg in route.legs if leg.kind == "turn"]
+    assert [t.radius for t in turns[:4]] == pytest.approx([75.0, 70.0, 75.0, 70.0], abs=1e-9)
+    for t in turns:
+        assert t.angle == pytest.approx(math.pi, abs=1e-9)
+        assert t.center[0] in (pytest.approx(0.0, abs=1e-9), pytest.approx(300.0, abs=1e-9))
+    assert route.loops == 0
+    assert route.Count("line") == 30
+
+
+def test_route_energy_is_power_times_time():
+    rect = shapely.Polygon([(0, 0), (300, 0), (300, 300), (0, 300)])
+    route = MakeRoute(Decompose(rect, 0.0), 10.0, 70.0)
+    v, p0, p2, g = 15.0, 25.0, 0.5, 3.0
+    time, energy, mean = RouteEnergy(route, v, (p0, p2), g)
+    assert time == pytest.approx(route.Length() / v, rel=1e-12)
+    expected = sum(
+        leg.length / v * (p0 + g + (p2 * (v / leg.radius) ** 2 if leg.kind == "turn" else 0.0))
+        for leg in route.legs
+    )
+    assert energy == pytest.approx(expected, rel=1e-12)
+    assert mean == pytest.approx(energy / time, rel=1e-12)
+    with pytest.raises(ValueError, match=r"airspeed: must be > 0 \[m/s\], got 0"):
+        RouteEnergy(route, 0.0, (p0, p2), g)
