@@ -124,6 +124,7 @@ class ExcessRiskTable:
         margins = np.arange(int(round(1.0 / self.step)) + 1) * self.step
         q = np.asarray(model.sizes.sum_tail(self.counts, margins))  # (K, counts + 1)
         self.q = np.ascontiguousarray(np.where(q < _TINY, 0.0, q).T)  # (counts + 1, K)
+        self._mixed_key, self._mixed = None, None
 
     def _CountsFor(self, *means) -> int:
         largest = max(float(np.max(np.asarray(m), initial=0.0)) for m in means)
@@ -168,6 +169,15 @@ class ExcessRiskTable:
         lowest = (tau_p == tau_0) & (m_p == m_0)
         return np.where(lowest, 0.0, np.clip(risk, 0.0, 1.0))
 
+    def _Mixed(self, tau_0: float, n: int) -> np.ndarray:
+        """G_u(m) on the margin grid (U, K) for the lowest plan time τ_0 [s] and n counts, the
+        last one kept (the search of :meth:`RequiredMargin` reads it at every stage)."""
+        if self._mixed_key != (tau_0, n):
+            later = _PoissonWeights(self.model.rate * tau_0 * (1.0 - _U), n)  # (U, n)
+            self._mixed = later @ self.q[1 : n + 1]
+            self._mixed_key = (tau_0, n)
+        return self._mixed
+
     def _PlanFailure(self, tau_p, m_p, tau_0: float, m_0) -> np.ndarray:
         """P(F_p) (an upper bound) for plans against one lowest plan time τ_0: the drops after
         the first one, G_u(m) = Σ_n Pois(n; Λ_0 (1 − u)) Q_(n+1)(m), tabulated once over the
@@ -175,8 +185,7 @@ class ExcessRiskTable:
         lam = self.model.rate
         mean_p = lam * np.asarray(tau_p, dtype=float)
         n = self._CountsFor(mean_p, lam * tau_0)
-        later = _PoissonWeights(lam * tau_0 * (1.0 - _U), n)  # (U, n)
-        mixed = later @ self.q[1 : n + 1]  # (U, K): G_u on the margin grid
+        mixed = self._Mixed(float(tau_0), n)  # (U, K): G_u on the margin grid
         margin = _U * np.asarray(m_p)[..., None] + (1.0 - _U) * np.asarray(m_0)[..., None]
         index = np.floor(np.clip(margin, 0.0, 1.0) / self.step).astype(int)
         tail = np.where(margin < 0.0, 1.0, mixed[np.arange(_U.size), index])  # (..., U)
