@@ -12,7 +12,7 @@ The YAML follows 1.2 (its core schema) where 1.1 surprises: ``1e3`` is a number;
 and ``false`` (``True``, ``FALSE``, …) are booleans, so ``no``, ``on``, ``yes``, ``off`` are
 strings (and a string where a boolean belongs is an error naming the key); a date is a string;
 a duplicate key is an error. The scenario is built from that data by the same walker that checks
-it (:func:`~eaplan_drake.params._Walk`), with ``yaml_load_typed``'s merge rule, so that the
+it (:func:`~eaplan_drake.params.walk._Walk`), with ``yaml_load_typed``'s merge rule, so that the
 checks and the values never read the text differently. A misspelt key, a wrong type or a value
 out of range raises :class:`~eaplan_drake.params.ScenarioError` naming the key
 (``file:line:col`` for syntax). Nothing here imports pydrake until a scenario is validated, so
@@ -29,7 +29,8 @@ import yaml
 
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import ReadTextFile
-from eaplan_drake.params import Scenario, _Dataclasses, _Hints, _UnknownKeyMessage, _Walk
+from eaplan_drake.params import Scenario
+from eaplan_drake.params.walk import _Dataclasses, _Hints, _UnknownKeyMessage, _Walk
 
 __all__ = [
     "LayerScenario",
@@ -160,7 +161,7 @@ def YamlData(data: str, source: str):
 
 def _LoadLayer(data: str, defaults: Scenario, where: str, source: str = "") -> Scenario:
     """``defaults`` with the YAML ``data`` loaded over it: a copy built from the strict loader's
-    data, checked key by key (:func:`~eaplan_drake.params._Walk`: mappings merge, lists and
+    data, checked key by key (:func:`~eaplan_drake.params.walk._Walk`: mappings merge, lists and
     scalars replace, integers in float fields become floats, as ``yaml_load_typed`` does)."""
     raw = YamlData(data, source or where.rstrip(": ") or "<yaml>")
     if raw is None:

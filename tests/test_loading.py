@@ -16,7 +16,8 @@ from eaplan_drake.loading import (
     ShippedFile,
     ShippedNames,
 )
-from eaplan_drake.params import Scenario, _Walk
+from eaplan_drake.params import Scenario
+from eaplan_drake.params.walk import _Walk
 
 NOT_BOOLEANS = ["yes", "no", "on", "off", "y", "n", "Yes", "NO", "On", "OFF", "Y", "N", "tRuE"]
 BOOLEANS = {
