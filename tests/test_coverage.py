@@ -9,22 +9,24 @@ import pytest
 
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.flight.coverage import (
-    APPROACH,
-    CoveragePolygon,
     CoverageTime,
-    GroundSpeed,
     MakeCoveragePlan,
+    ScalingFactors,
+    ZamboniCoverage,
+)
+from eaplan_drake.flight.paths import Circle
+from eaplan_drake.flight.polygon import CoveragePolygon
+from eaplan_drake.flight.stages import (
+    APPROACH,
+    GroundSpeed,
     PathLeft,
     PathLength,
-    ScalingFactors,
     Stage,
     StageRemaining,
     StageTime,
     SurveyFraction,
     TurningRadius2,
-    ZamboniCoverage,
 )
-from eaplan_drake.flight.paths import Circle
 from eaplan_drake.params import CoverageParams, GuidanceParams, VehicleParams
 
 V_A = 15.0

@@ -11,15 +11,9 @@ from matplotlib.collections import LineCollection
 from matplotlib.patches import Rectangle
 
 from eaplan_drake.flightlog import FlightLog, SampleQuality
-from eaplan_drake.output.plots import (
-    COLORS,
-    QUALITY_COLORMAP,
-    InfeasibleCause,
-    ParameterSteps,
-    PlotFlight,
-    Runs,
-    TimeMarkStep,
-)
+from eaplan_drake.output.plot_math import ParameterSteps, Runs, TimeMarkStep
+from eaplan_drake.output.plot_style import COLORS, QUALITY_COLORMAP, InfeasibleCause
+from eaplan_drake.output.plots import PlotFlight
 from eaplan_drake.params import BatteryFault, Scenario
 
 T_END = 120.0

@@ -8,15 +8,8 @@ import pytest
 
 from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.flightlog import FlightLog, SampleQuality
-from eaplan_drake.output.plots import (
-    PlotFlight,
-    PlotPolicyComparison,
-    RobustRange,
-    SaveFlightPlots,
-    StagePoints,
-    UncoveredArea,
-    UncoveredRadius,
-)
+from eaplan_drake.output.plot_math import RobustRange, StagePoints, UncoveredArea, UncoveredRadius
+from eaplan_drake.output.plots import PlotFlight, PlotPolicyComparison, SaveFlightPlots
 from eaplan_drake.params import BatteryFault, Scenario
 
 
@@ -185,7 +178,7 @@ def test_policy_comparison_has_a_path_panel_per_policy():
 
 
 def test_draw_plan_labels_a_solid_stage():
-    from eaplan_drake.output.plots import DrawPlan
+    from eaplan_drake.output.path_plot import DrawPlan
 
     plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0, k_e=0.05)
     fig, ax = plt.subplots()

@@ -71,11 +71,11 @@ import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from eaplan_drake.flight.coverage import (
+from eaplan_drake.flight.coverage import PlanSource
+from eaplan_drake.flight.stages import (
     ANCHOR_SIZE,
     NUM_PRIMITIVES,
     PathLeft,
-    PlanSource,
     Stage,
     StageTime,
     SurveyFraction,

@@ -10,13 +10,13 @@ What the scene shows (x, y as in the plots; z up):
 
 - the survey polygon (grey) and the lines of the plan at the initial c1 (thin, dark grey);
 - the flown path, revealed as time passes, coloured by the quality ½c̃1 + ½c̃2 on the colour map
-  of ``flight.png`` (:data:`~eaplan_drake.output.plots.QUALITY_COLORMAP`, viridis: purple = 0,
+  of ``flight.png`` (:data:`~eaplan_drake.output.plot_style.QUALITY_COLORMAP`, viridis: purple = 0,
   yellow = 1);
 - the aircraft as a small body and wing, turned to its heading ψ;
 - the wind as a dark grey arrow beside the area (length ∝ speed: 1 hm per 10 m/s);
 - three bars to the right of the area that follow time: SoC b (green, with the reserve as a cyan
   tick), c̃1 (blue) and c̃2 (orange), each full length at 1 (the colours of ``flight.png``,
-  :data:`~eaplan_drake.output.plots.COLORS`); and a text line at the top of the page with t, b,
+  :data:`~eaplan_drake.output.plot_style.COLORS`); and a text line at the top of the page with t, b,
   c̃1 (c1 [m²]) and c̃2 (c2 [table units]) at the slider's time.
 
 The parameters are normalised as in the figures, c̃ = (c − c̲)/(c̄ − c̲) ∈ [0, 1]; the path
@@ -147,7 +147,7 @@ def _Flat(meshcat, path, outline_xy, z, rgba):
 
 
 def _Planned(scenario: Scenario):
-    from eaplan_drake.output.plots import StagePoints
+    from eaplan_drake.output.plot_math import StagePoints
     from eaplan_drake.resolve import MakePlanSource
 
     c1 = scenario.planner.initial_path_parameters[0]
@@ -241,7 +241,7 @@ def SaveFlightReplay(
     from pydrake.geometry import Box, Meshcat, Rgba
     from pydrake.math import RigidTransform, RotationMatrix
 
-    from eaplan_drake.output.plots import COLORS, QUALITY_COLORMAP
+    from eaplan_drake.output.plot_style import COLORS, QUALITY_COLORMAP
 
     path = Path(path)
     frames = ReplayFrames(log.times, frame_rate)
