@@ -128,31 +128,32 @@ def _WindArrow(ax, scenario: Scenario) -> None:
     )
 
 
-def _PathMarks(ax, log: FlightLog, scenario: Scenario, labels: bool = True) -> list:
-    """Time marks (dot and "60 s") every :func:`~eaplan_drake.output.plot_math.TimeMarkStep`
-    seconds, direction arrowheads between them, a star where each battery fault came and a
-    diamond where c1 changed; returns legend handles. Labels sit beside the path, on the left of
-    the direction of flight."""
-    t, p = log.times, np.asarray(log["position"], dtype=float)
-    if len(t) < 3:
-        return []
-    t0, t1 = float(t[0]), float(t[-1])
-    step = TimeMarkStep(t1 - t0)
+class _Track:
+    """The flown positions ``p`` [m] at the times ``t`` [s] of a log, as the path's marks use
+    them: the sample at a time, the direction of flight at a sample, a label beside it."""
 
-    def index(at):
-        return int(np.clip(np.searchsorted(t, at), 1, len(t) - 2))
+    def __init__(self, t, p):
+        self.t, self.p = t, p
 
-    def direction(i):
+    def Index(self, at: float) -> int:
+        """The sample at time ``at`` [s] (never the first or the last)."""
+        return int(np.clip(np.searchsorted(self.t, at), 1, len(self.t) - 2))
+
+    def Direction(self, i: int) -> np.ndarray:
+        """The unit direction of flight at sample ``i`` (over ±2 samples)."""
+        p = self.p
         d = p[min(i + 2, len(p) - 1)] - p[max(i - 2, 0)]
         n = float(np.hypot(*d))
         return d / n if n > 0 else np.array([1.0, 0.0])
 
-    def label(i, text, side, color, **kw):
-        d = direction(i)
+    def Label(self, ax, i: int, text: str, side: float, color, **kw) -> None:
+        """``text`` 8 points beside sample ``i``: on the left of the direction of flight for
+        ``side`` = +1, on the right for −1."""
+        d = self.Direction(i)
         n = side * np.array([-d[1], d[0]])  # +1: left of the direction of flight
         ax.annotate(
             text,
-            xy=p[i],
+            xy=self.p[i],
             xytext=8.0 * n,
             textcoords="offset points",
             ha="left" if n[0] > 0.35 else "right" if n[0] < -0.35 else "center",
@@ -163,79 +164,148 @@ def _PathMarks(ax, log: FlightLog, scenario: Scenario, labels: bool = True) -> l
             **kw,
         )
 
-    handles = []
+
+_LABEL_BOX = {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8}
+
+
+def _TimeMarks(ax, track: _Track, step: float, labels: bool) -> list:
+    """A dot (and with ``labels`` its time) every ``step`` seconds; returns its legend handle."""
+    t0, t1 = float(track.t[0]), float(track.t[-1])
     marks = np.arange(t0 + step, t1 - 0.2 * step, step)
-    if marks.size:
-        idx = [index(m) for m in marks]
-        ax.plot(*p[idx].T, "o", color=COLORS["progress"], ms=3.5, ls="", zorder=6)
-        if labels:
-            for i, m in zip(idx, marks, strict=True):
-                box = {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8}
-                label(i, f"{m - t0:g} s", 1.0, COLORS["progress"], bbox=box)
-        handles.append(
-            Line2D(
-                [],
-                [],
-                marker="o",
-                color=COLORS["progress"],
-                ms=3.5,
-                ls="",
-                label=f"every {step:g} s",
-            )
+    if not marks.size:
+        return []
+    idx = [track.Index(m) for m in marks]
+    ax.plot(*track.p[idx].T, "o", color=COLORS["progress"], ms=3.5, ls="", zorder=6)
+    if labels:
+        for i, m in zip(idx, marks, strict=True):
+            track.Label(ax, i, f"{m - t0:g} s", 1.0, COLORS["progress"], bbox=dict(_LABEL_BOX))
+    return [
+        Line2D(
+            [], [], marker="o", color=COLORS["progress"], ms=3.5, ls="", label=f"every {step:g} s"
         )
+    ]
+
+
+def _DirectionMarks(ax, track: _Track, step: float) -> list:
+    """Arrowheads in the direction of flight, three per ``step`` seconds; returns their legend
+    handle."""
+    t0, t1 = float(track.t[0]), float(track.t[-1])
     for a in np.arange(t0 + step / 6.0, t1 - 0.1 * step, step / 3.0):
-        i = index(a)
-        d = direction(i)
+        i = track.Index(a)
+        d = track.Direction(i)
         ax.plot(
-            *p[i],
+            *track.p[i],
             marker=_Arrowhead(math.degrees(math.atan2(d[1], d[0]))),
             color=COLORS["progress"],
             ms=7,
             ls="",
             zorder=6,
         )
-    handles.append(
-        Line2D([], [], marker=">", color=COLORS["progress"], ms=7, ls="", label="direction")
-    )
+    return [Line2D([], [], marker=">", color=COLORS["progress"], ms=7, ls="", label="direction")]
+
+
+def _FaultMarks(ax, track: _Track, scenario: Scenario, labels: bool) -> list:
+    """A star where each battery fault of the flight came (with ``labels`` its time); returns
+    their legend handle."""
+    t0, t1 = float(track.t[0]), float(track.t[-1])
     faults = [f for f in scenario.battery.faults if t0 <= f.time <= t1]
     for f in faults:
-        i = index(f.time)
-        ax.plot(*p[i], "*", color=COLORS["fault"], mec="k", mew=0.5, ms=12, ls="", zorder=7)
+        i = track.Index(f.time)
+        ax.plot(*track.p[i], "*", color=COLORS["fault"], mec="k", mew=0.5, ms=12, ls="", zorder=7)
         if labels:
-            box = {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8}
-            label(i, f"fault {f.time:g} s", -1.0, COLORS["fault"], bbox=box)
-    if faults:
-        handles.append(
-            Line2D(
-                [],
-                [],
-                marker="*",
-                color=COLORS["fault"],
-                mec="k",
-                mew=0.5,
-                ms=11,
-                ls="",
-                label=f"fault ({_Faults(scenario)})",
-            )
+            track.Label(ax, i, f"fault {f.time:g} s", -1.0, COLORS["fault"], bbox=dict(_LABEL_BOX))
+    if not faults:
+        return []
+    return [
+        Line2D(
+            [],
+            [],
+            marker="*",
+            color=COLORS["fault"],
+            mec="k",
+            mew=0.5,
+            ms=11,
+            ls="",
+            label=f"fault ({_Faults(scenario)})",
         )
+    ]
+
+
+def _C1Changes(ax, track: _Track, log: FlightLog, scenario: Scenario) -> list:
+    """A diamond where c1 stepped by at least 5 % of its range; returns their legend handle."""
     lo, hi = _PathBounds(log, scenario)
-    changes = ParameterSteps(t, log["path_parameters"][:, 0], 0.05 * (hi - lo))
-    if changes.size:
-        ax.plot(*p[changes].T, "D", mfc="white", mec=COLORS["c1"], mew=1.5, ms=6, ls="", zorder=6)
-        handles.append(
-            Line2D(
-                [],
-                [],
-                marker="D",
-                mfc="white",
-                mec=COLORS["c1"],
-                mew=1.5,
-                ms=6,
-                ls="",
-                label="c1 changed (a step ≥ 5 % of its range)",
-            )
+    changes = ParameterSteps(track.t, log["path_parameters"][:, 0], 0.05 * (hi - lo))
+    if not changes.size:
+        return []
+    ax.plot(*track.p[changes].T, "D", mfc="white", mec=COLORS["c1"], mew=1.5, ms=6, ls="", zorder=6)
+    return [
+        Line2D(
+            [],
+            [],
+            marker="D",
+            mfc="white",
+            mec=COLORS["c1"],
+            mew=1.5,
+            ms=6,
+            ls="",
+            label="c1 changed (a step ≥ 5 % of its range)",
         )
-    return handles
+    ]
+
+
+def _PathMarks(ax, log: FlightLog, scenario: Scenario, labels: bool = True) -> list:
+    """Time marks (dot and "60 s") every :func:`~eaplan_drake.output.plot_math.TimeMarkStep`
+    seconds, direction arrowheads between them, a star where each battery fault came and a
+    diamond where c1 changed; returns legend handles. Labels sit beside the path, on the left of
+    the direction of flight."""
+    t, p = log.times, np.asarray(log["position"], dtype=float)
+    if len(t) < 3:
+        return []
+    track = _Track(t, p)
+    step = TimeMarkStep(float(t[-1]) - float(t[0]))
+    return [
+        *_TimeMarks(ax, track, step, labels),
+        *_DirectionMarks(ax, track, step),
+        *_FaultMarks(ax, track, scenario, labels),
+        *_C1Changes(ax, track, log, scenario),
+    ]
+
+
+def _PathColour(log: FlightLog, scenario: Scenario, colour_by: str) -> tuple[np.ndarray, str]:
+    """The value in [0, 1] each sample of the path is coloured by, and its label: the quality
+    ½c̃1 + ½c̃2 (``colour_by="quality"``) or c̃1 (``"path"``)."""
+    if colour_by == "quality":
+        return SampleQuality(log), _QUALITY_LABEL
+    if colour_by == "path":
+        value = NormaliseParameters(log["path_parameters"][:, 0], *_PathBounds(log, scenario))
+        return value, f"c̃1 [-] ({_C1_NOTE}, normalised)"
+    raise ValueError(f"colour_by: 'quality' or 'path', got {colour_by!r}")
+
+
+def _Uncovered(ax, scenario: Scenario, poly, p) -> list:
+    """The part of the survey area ``poly`` [m] the path ``p`` [m] left uncovered, hatched
+    (:func:`~eaplan_drake.output.plot_math.UncoveredArea`); returns its legend handle."""
+    x, y, mask, fraction = UncoveredArea(poly, p, UncoveredRadius(scenario))
+    if not mask.any():
+        return []
+    ax.contourf(
+        x,
+        y,
+        mask.astype(float),
+        levels=[0.5, 1.5],
+        colors="none",
+        hatches=["////"],
+        zorder=1,
+    )
+    ax.contour(x, y, mask.astype(float), levels=[0.5], colors=COLORS["uncovered"], linewidths=0.8)
+    return [
+        Patch(
+            facecolor="none",
+            edgecolor=COLORS["uncovered"],
+            hatch="////",
+            label=f"not covered ({100 * fraction:.0f} % of the area)",
+        )
+    ]
 
 
 def PlotPath(
@@ -259,13 +329,7 @@ def PlotPath(
     p = np.asarray(log["position"], dtype=float)
     poly = np.asarray(scenario.coverage.polygon, dtype=float)
     DrawSurveyArea(ax, poly, p[0])
-    if colour_by == "quality":
-        value, label = SampleQuality(log), _QUALITY_LABEL
-    elif colour_by == "path":
-        value = NormaliseParameters(log["path_parameters"][:, 0], *_PathBounds(log, scenario))
-        label = f"c̃1 [-] ({_C1_NOTE}, normalised)"
-    else:
-        raise ValueError(f"colour_by: 'quality' or 'path', got {colour_by!r}")
+    value, label = _PathColour(log, scenario, colour_by)
     segments = np.stack([p[:-1], p[1:]], axis=1)
     lc = LineCollection(
         segments, cmap=QUALITY_COLORMAP, norm=Normalize(0.0, 1.0), linewidth=1.4, zorder=2
@@ -289,28 +353,7 @@ def PlotPath(
     if time_marks:
         handles += _PathMarks(ax, log, scenario)
     if s and not s.get("completed", True):
-        x, y, mask, fraction = UncoveredArea(poly, p, UncoveredRadius(scenario))
-        if mask.any():
-            ax.contourf(
-                x,
-                y,
-                mask.astype(float),
-                levels=[0.5, 1.5],
-                colors="none",
-                hatches=["////"],
-                zorder=1,
-            )
-            ax.contour(
-                x, y, mask.astype(float), levels=[0.5], colors=COLORS["uncovered"], linewidths=0.8
-            )
-            handles.append(
-                Patch(
-                    facecolor="none",
-                    edgecolor=COLORS["uncovered"],
-                    hatch="////",
-                    label=f"not covered ({100 * fraction:.0f} % of the area)",
-                )
-            )
+        handles += _Uncovered(ax, scenario, poly, p)
     lo = np.min(np.vstack([p, poly]), axis=0)
     hi = np.max(np.vstack([p, poly]), axis=0)
     span = np.maximum(hi - lo, 1.0)
