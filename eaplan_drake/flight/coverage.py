@@ -43,16 +43,15 @@ input) is the same ratio with the rest and the whole plan taken at c̄1 instead:
 re-plans, but at the end of a plan flown below c̄1 it still holds the repetitions that the c̄1 plan
 would fit after the flown plan's last one (the number of repetitions is whole at each c1).
 
-What a completed plan covers (``tests/test_completion.py``): with swaths of half the widest line
-spacing flown, d/2, the lines cover the polygon from its near edge to the last second line's swath,
-but for small corners at slanted edges between coarse lines (a line spans the polygon over its own
-x_d band only). Beyond the last second line a strip at the far edge is left when the next
-repetition did not fit, narrower than d/2 + x_d/2: 2 % of the reference field at c1 = −1000, none
-at c1 = 0 (15 repetitions land on W − x_d/2). The first lines meet the second lines (the middle
-of the field is swept) only when the field is about 4 r1 wide across the lines or wider (the
-reference field: exactly 4 r1 = 300 m); a narrower field passes :func:`CheckCoverageGeometry`
-(which needs 2 r1 + x_d) and is left unswept between the last first line and the first second
-line.
+What a completed plan covers (``tests/test_coverage_completion.py``): with swaths of half the widest
+line spacing flown, d/2, the lines cover the polygon from its near edge to the last second line's
+swath, but for small corners at slanted edges between coarse lines (a line spans the polygon over
+its own x_d band only). Beyond the last second line a strip at the far edge is left when the next
+repetition did not fit, narrower than d/2 + x_d/2: 2 % of the reference field at c1 = −1000, none at
+c1 = 0 (15 repetitions land on W − x_d/2). The first lines meet the second lines (the middle of the
+field is swept) only when the field is about 4 r1 wide across the lines or wider (the reference
+field: exactly 4 r1 = 300 m); a narrower field passes :func:`CheckCoverageGeometry` (which needs 2
+r1 + x_d) and is left unswept between the last first line and the first second line.
 """
 
 import copy
