@@ -112,7 +112,7 @@ def _Memoized(maxsize: int):
 class PlanSource:
     """A plan as a function of the path parameter c1: the stages at c1, and the stages after a
     given stage when c1 changes in flight. Subclasses call ``PlanSource.__init__`` and implement
-    :meth:`_Stages` and :meth:`_StagesAfter`; the public methods cache their results per argument
+    ``_Stages`` and ``_StagesAfter``; the public methods cache their results per argument
     (the methods are pure). A plan pickles as its definition (the caches are left out).
 
     Args:
@@ -175,7 +175,7 @@ class PlanSource:
     # -- derived ---------------------------------------------------------------------------------
 
     def CheckC1(self, c1: float) -> float:
-        """c1 within :attr:`c1_bounds` (1e-6 tolerance, then clipped); ValueError otherwise."""
+        """c1 within ``c1_bounds`` (1e-6 tolerance, then clipped); ValueError otherwise."""
         lo, hi = self.c1_bounds
         if not math.isfinite(c1) or c1 < lo - 1e-6 or c1 > hi + 1e-6:
             raise ValueError(f"path parameter c1 must be in [{lo:g}, {hi:g}] m², got {c1!r}")
@@ -232,7 +232,7 @@ class PlanSource:
     def CoverageTimeBounds(
         self, c1_bounds=None, airspeed: float | None = None, wind=(0.0, 0.0)
     ) -> tuple[float, float]:
-        """(t(c̲1), t(c̄1)) [s] at ``airspeed`` (default :attr:`airspeed`), approach included:
+        """(t(c̲1), t(c̄1)) [s] at ``airspeed`` (default ``airspeed``), approach included:
         the two end points of the linear coverage-time model of Eq. 10."""
         lo, hi = self.c1_bounds if c1_bounds is None else c1_bounds
         v = self.airspeed if airspeed is None else airspeed

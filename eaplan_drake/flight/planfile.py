@@ -46,6 +46,7 @@ __all__ = [
     "PlanFileError",
     "Expression",
     "ParseExpression",
+    "ParsePlanText",
     "PlanStageSpec",
     "PlanFile",
     "ReadPlanFile",

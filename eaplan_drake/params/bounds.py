@@ -26,15 +26,19 @@ MAX_HORIZON = 100
 MAX_VARIANCE = 1e6
 """Largest estimator variance (initial_covariance, process_noise, measurement_noise) [W²]."""
 MAX_POLYGON_VERTICES = 100
+"""Largest number of coverage.polygon vertices [-]."""
 MAX_COORDINATE = 1e7
-"""Largest |x|, |y| of vehicle.initial_position [m] (the guidance overflows near 1e100)."""
+"""Largest \\|x\\|, \\|y\\| of vehicle.initial_position [m] (the guidance overflows near 1e100)."""
 MAX_GUIDANCE_GAIN = 1e3
 """Largest guidance.k_e [1/m] (the reference is 0.05; 1e300 overflows the guidance)."""
 MAX_SURVEY_LINES = 2000
 """Largest width of the field across the lines / swath_spacing [-] (a 2000-line plan has ≈ 8000
 stages and takes ≈ 1 s to build)."""
 MAX_FAULTS = 100
+"""Largest number of battery.faults [-]."""
 MAX_EXPECTED_DROPS = 100.0
 """Largest λ·time_limit of a risk-reserve planner's fault model (bounds its tail sums)."""
 MAX_COMPUTATION_PARAMETERS = 8
+"""Largest number of computation parameters σ (computation.initial_parameters) [-]."""
 MAX_NAME_LENGTH = 100
+"""Largest length of a scenario's name [characters]."""

@@ -227,7 +227,7 @@ class PlannerProgram:
         return InitializeAutoDiff(out, J @ ExtractGradient(x))
 
     def Solve(self, initial_guess):
-        """Solves from ``initial_guess`` (layout of :attr:`variables`) with the chosen solver."""
+        """Solves from ``initial_guess`` (layout of ``variables``) with the chosen solver."""
         return self.solver.Solve(self.prog, np.asarray(initial_guess, float), self.options)
 
 
@@ -421,7 +421,7 @@ class Planner:
     def Relax(self, f_half, soc: float, computation_parameters, warm_start=None):
         """Solves the NLP (Eq. 16) of one step: ``f_half`` the free response at t0 + k·h/2
         (at least 2N + 1 samples) [W], b0 = ``soc`` [-], the parameters c_prev applied now and an
-        initial guess (layout of :attr:`PlannerProgram.variables`; None: the lowest).
+        initial guess (layout of ``PlannerProgram.variables``; None: the lowest).
 
         Returns (x, status, solve time [s]); x is None after a failed solve (never raised).
         """

@@ -68,6 +68,7 @@ __all__ = [
     "FaultDistribution",
     "FlyRow",
     "LoadStudy",
+    "MAX_JOBS",
     "RunStudy",
     "Study",
     "StudyFlights",
@@ -250,7 +251,7 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
 def DrawFaults(rng: np.random.Generator, model: FaultModelParams, horizon: float) -> list:
     """Battery faults drawn from ``model`` over [0, ``horizon``] [s]: a Poisson number of drops
     at uniform times (the arrivals of a Poisson process of rate λ), sizes from the model's
-    distribution, at most :data:`~eaplan_drake.params.MAX_FAULTS` (the earliest)."""
+    distribution, at most :data:`~eaplan_drake.params.bounds.MAX_FAULTS` (the earliest)."""
     n = min(int(rng.poisson(model.rate * horizon)), MAX_FAULTS)
     times = np.sort(rng.uniform(0.0, horizon, size=n))
     if model.sizes == "uniform":
