@@ -56,7 +56,25 @@ autodoc_typehints = "description"
 autodoc_default_options = {"show-inheritance": False}
 autoclass_content = "class"
 add_module_names = False
-nitpicky = False
+nitpicky = True
+# Every reference must resolve, but for the external types that have no inventory offline (the
+# docs build without network access): numpy's, the standard library's and pydrake's classes, as
+# they appear in signatures, type hints and base classes.
+nitpick_ignore = [
+    ("py:class", "argparse.ArgumentParser"),
+    ("py:class", "collections.abc.Callable"),
+    ("py:class", "numpy.ndarray"),
+    ("py:class", "numpy.random._generator.Generator"),
+    ("py:class", "pathlib.Path"),
+    ("py:class", "pydrake.common.containers.NamedViewBase"),
+    ("py:class", "pydrake.systems.framework.Context"),
+    ("py:class", "pydrake.systems.framework.Diagram"),
+    ("py:class", "pydrake.systems.framework.DiagramBuilder"),
+    ("py:class", "pydrake.systems.framework.LeafSystem"),
+    ("py:class", "pydrake.systems.framework.OutputPort"),
+    ("py:class", "pydrake.systems.primitives.Adder"),
+    ("py:class", "pydrake.systems.primitives.ConstantVectorSource"),
+]
 
 
 class PydrakeSystem(Directive):
@@ -115,34 +133,70 @@ def GoogleSections(app, what, name, obj, options, lines):
     lines[:] = GoogleDocstring(lines, NAPOLEON, app, what, name, obj, options).lines()
 
 
+def _Owner(target: str) -> str | None:
+    """Where a name of a package's face is defined: ``eaplan_drake.Simulate`` →
+    ``eaplan_drake.simulation.Simulate``, ``eaplan_drake.params.VehicleParams[.Validate]`` →
+    ``eaplan_drake.params.flight.VehicleParams[.Validate]``; a template instantiation
+    (``eaplan_drake.flight.plant.FixedWingPlant_𝓣float𝓤``) → the module's name for it
+    (``eaplan_drake.flight.plant.FixedWingPlant``). None for any other target."""
+    import importlib
+
+    parts = target.split(".")
+    if parts[0] != "eaplan_drake":
+        return None
+    for n in range(len(parts) - 1, 0, -1):
+        try:
+            module = importlib.import_module(".".join(parts[:n]))
+        except ImportError:
+            continue
+        name, rest = parts[n], parts[n + 1 :]
+        if "𝓣" in name:
+            for alias, value in vars(module).items():
+                public = not alias.startswith("_") and "𝓣" not in alias
+                if public and getattr(value, "__name__", None) == name:
+                    return ".".join([module.__name__, alias, *rest])
+            return None
+        if not hasattr(module, "__path__") or name not in getattr(module, "__all__", ()):
+            return None
+        owner = getattr(getattr(module, name), "__module__", None)
+        if not owner or owner == module.__name__:
+            return None
+        return ".".join([owner, name, *rest])
+    return None
+
+
 def ResolvePublicName(app, env, node, contnode):
-    """Resolves a Python reference to a name of the public face (``eaplan_drake.Simulate``, or
-    a bare ``Scenario`` in a module that imports it) to where that name is defined and
-    documented (``eaplan_drake.simulation.Simulate``)."""
+    """Resolves a Python reference to a name of a package's face (``eaplan_drake.Simulate``,
+    ``eaplan_drake.params.Scenario``, or a bare ``Scenario`` in a module that imports it from
+    the top-level face) to where that name is defined and documented (:func:`_Owner`)."""
     if node.get("refdomain") != "py":
         return None
     target = node.get("reftarget", "")
-    name = target.removeprefix("eaplan_drake.")
-    if not name or "." in name:
-        return None
-    import eaplan_drake
+    if target and "." not in target:
+        import eaplan_drake
 
-    if name not in getattr(eaplan_drake, "__all__", ()):
-        return None
+        if target not in getattr(eaplan_drake, "__all__", ()):
+            return None
+        target = f"eaplan_drake.{target}"
     try:
-        module = getattr(eaplan_drake, name).__module__
-    except Exception:  # a module of the public face that does not import: autodoc says so
+        owner = _Owner(target)
+    except Exception:  # a module of the face that does not import: autodoc says so
         return None
-    if not module:
+    if owner is None:
         return None
     py = env.get_domain("py")
-    return py.resolve_xref(
-        env, node["refdoc"], app.builder, node["reftype"], f"{module}.{name}", node, contnode
-    )
+    return py.resolve_xref(env, node["refdoc"], app.builder, node["reftype"], owner, node, contnode)
+
+
+def PublicBases(app, name, obj, options, bases):
+    """Leaves the private bases (``_Params``, a ``_FixedWingPorts`` mixin) out of a class's
+    "Bases:" line: they are not part of the documented API."""
+    bases[:] = [b for b in bases if not getattr(b, "__name__", "").startswith("_")]
 
 
 def setup(app):
     app.add_directive("pydrake_system", PydrakeSystem)
     app.connect("missing-reference", ResolvePublicName)
     app.connect("autodoc-process-docstring", GoogleSections)
+    app.connect("autodoc-process-bases", PublicBases)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -26,7 +26,7 @@ except _metadata.PackageNotFoundError:  # imported from a source tree that is no
 
 _PUBLIC = {
     # the scenario
-    "Scenario": "params",
+    "Scenario": "params.scenario",
     "ScenarioError": "errors",
     "LoadScenario": "loading",
     "LoadNamedScenario": "loading",

@@ -49,7 +49,7 @@ __all__ = ["MakeParser", "main"]
 def _FormatSummary(summary: dict) -> str:
     import statistics
 
-    from eaplan_drake.output.plots import InfeasibleCause
+    from eaplan_drake.output.plot_style import InfeasibleCause
 
     metric = summary.get("metric")
     planner = summary.get("planner", {})

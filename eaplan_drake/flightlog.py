@@ -46,8 +46,8 @@ class FlightLog:
 
     def Save(self, directory: str | Path) -> Path:
         """Writes ``log.npz`` and ``summary.json`` (strict JSON) into ``directory`` (created),
-        each file atomically (:func:`AtomicWrite`); :func:`SaveFlight` writes a whole result
-        directory as a unit."""
+        each file atomically (:func:`~eaplan_drake.files.AtomicWrite`); :func:`SaveFlight` writes
+        a whole result directory as a unit."""
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
         AtomicWrite(

@@ -8,15 +8,15 @@ other value, lists included, replaces: ``yaml_load_typed(defaults=…)``'s rule)
 layer. :func:`ShippedFile` is the one place that turns "a shipped name or a YAML path" into a
 file, for scenarios and studies alike, and :func:`LoadNamedScenario` loads either.
 
-The YAML follows 1.2 (its core schema) where 1.1 surprises: ``1e3`` is a number; only ``true``
-and ``false`` (``True``, ``FALSE``, …) are booleans, so ``no``, ``on``, ``yes``, ``off`` are
-strings (and a string where a boolean belongs is an error naming the key); a date is a string;
-a duplicate key is an error. The scenario is built from that data by the same walker that checks
-it (:func:`~eaplan_drake.params._Walk`), with ``yaml_load_typed``'s merge rule, so that the
-checks and the values never read the text differently. A misspelt key, a wrong type or a value
-out of range raises :class:`~eaplan_drake.params.ScenarioError` naming the key
-(``file:line:col`` for syntax). Nothing here imports pydrake until a scenario is validated, so
-the command line can check a name first.
+The YAML follows 1.2 (its core schema) where 1.1 surprises: ``1e3`` is a number; only ``true`` and
+``false`` (``True``, ``FALSE``, …) are booleans, so ``no``, ``on``, ``yes``, ``off`` are strings
+(and a string where a boolean belongs is an error naming the key); a date is a string; a duplicate
+key is an error. The scenario is built from that data by the same walker that checks it (the type
+walker of :mod:`eaplan_drake.params.walk`), with ``yaml_load_typed``'s merge rule, so that the
+checks and the values never read the text differently. A misspelt key, a wrong type or a value out
+of range raises :class:`~eaplan_drake.params.ScenarioError` naming the key (``file:line:col`` for
+syntax). Nothing here imports pydrake until a scenario is validated, so the command line can check a
+name first.
 """
 
 import copy
@@ -29,7 +29,8 @@ import yaml
 
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import ReadTextFile
-from eaplan_drake.params import Scenario, _Dataclasses, _Hints, _UnknownKeyMessage, _Walk
+from eaplan_drake.params import Scenario
+from eaplan_drake.params.walk import _Dataclasses, _Hints, _UnknownKeyMessage, _Walk
 
 __all__ = [
     "LayerScenario",
@@ -145,7 +146,7 @@ _StrictYamlLoader.add_implicit_resolver(
 
 
 def YamlData(data: str, source: str):
-    """The raw YAML data of ``data`` (:class:`_StrictYamlLoader`); a syntax error is one line
+    """The raw YAML data of ``data`` (``_StrictYamlLoader``); a syntax error is one line
     ``source:line:col: invalid YAML: problem``."""
     try:
         return yaml.load(data, Loader=_StrictYamlLoader)  # noqa: S506 (a SafeLoader)
@@ -160,8 +161,9 @@ def YamlData(data: str, source: str):
 
 def _LoadLayer(data: str, defaults: Scenario, where: str, source: str = "") -> Scenario:
     """``defaults`` with the YAML ``data`` loaded over it: a copy built from the strict loader's
-    data, checked key by key (:func:`~eaplan_drake.params._Walk`: mappings merge, lists and
-    scalars replace, integers in float fields become floats, as ``yaml_load_typed`` does)."""
+    data, checked key by key (the type walker of :mod:`eaplan_drake.params.walk`: mappings merge,
+    lists and scalars replace, integers in float fields become floats, as ``yaml_load_typed``
+    does)."""
     raw = YamlData(data, source or where.rstrip(": ") or "<yaml>")
     if raw is None:
         raw = {}

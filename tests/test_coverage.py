@@ -9,22 +9,20 @@ import pytest
 
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.flight.coverage import (
-    APPROACH,
-    CoveragePolygon,
     CoverageTime,
-    GroundSpeed,
     MakeCoveragePlan,
-    PathLeft,
-    PathLength,
     ScalingFactors,
+    ZamboniCoverage,
+)
+from eaplan_drake.flight.stages import (
+    APPROACH,
+    PathLeft,
     Stage,
     StageRemaining,
     StageTime,
     SurveyFraction,
     TurningRadius2,
-    ZamboniCoverage,
 )
-from eaplan_drake.flight.paths import Circle
 from eaplan_drake.params import CoverageParams, GuidanceParams, VehicleParams
 
 V_A = 15.0
@@ -137,27 +135,6 @@ def test_coverage_time_matches_geometry_and_the_paper(reference):
     assert reference.CoverageTime(0.0, V_A, include_approach=False) == pytest.approx(
         reference.SurveyLength(0.0) / V_A
     )
-
-
-def test_ground_speed_and_stage_time_in_wind():
-    w = (5.0, 0.0)
-    assert GroundSpeed((1.0, 0.0), V_A, w) == pytest.approx(20.0)
-    assert GroundSpeed((-1.0, 0.0), V_A, w) == pytest.approx(10.0)
-    assert GroundSpeed((0.0, 1.0), V_A, w) == pytest.approx(math.sqrt(200.0))
-    # A half circle (bottom, downwind) against an independent time integration of the arc.
-    c = Circle((0.0, 0.0), 75.0, s=-1.0, k_e=K_E)
-    st = Stage(0, c, (75.0, 0.0), 1, 0.0, (-75.0, 0.0), math.pi * 75.0)
-    theta, t, h = math.pi, 0.0, 1e-3  # ccw from 180° through 270° to 360°
-    while theta < 2 * math.pi:
-        course = (-math.sin(theta), math.cos(theta))
-        dtheta = GroundSpeed(course, V_A, w) / 75.0
-        step = min(h, (2 * math.pi - theta) / dtheta)
-        theta += dtheta * step
-        t += step
-    assert StageTime(st, V_A, w) == pytest.approx(t, rel=1e-5)
-    assert StageTime(st, V_A) == pytest.approx(math.pi * 75.0 / V_A)
-    with pytest.raises(ValueError, match="wind"):
-        StageTime(st, V_A, (15.0, 0.0))
 
 
 def test_repetition_time_in_wind_is_longer_than_in_still_air(reference):
@@ -292,14 +269,6 @@ def test_trapezoid_lines_cover_their_swath_and_turns_are_tangent():
     assert -ups[-1].path.c / ups[-1].path.b[1] <= 320.0 - 5.0 + 1e-9
 
 
-def test_polygon_band_extent_of_a_triangle():
-    poly = CoveragePolygon([[0.0, 0.0], [0.0, 100.0], [100.0, 0.0]], line_edge=0)
-    # Edge 0 is the y-axis; e2 = +x; e1 = −y: ξ = −y. At x = 50 the chord is y ∈ [0, 50].
-    assert poly.width == pytest.approx(100.0)
-    assert poly.Chord(50.0) == pytest.approx((-50.0, 0.0))
-    assert poly.BandExtent(50.0, 5.0) == pytest.approx((-55.0, 0.0))
-
-
 @pytest.mark.parametrize(
     "polygon, edge, match",
     [
@@ -371,14 +340,6 @@ def test_make_coverage_plan_uses_the_vehicle():
     lo, hi = plan.CoverageTimeBounds((-1000.0, 0.0))
     assert lo == pytest.approx(plan.CoverageTime(-1000.0, 20.0))
     assert hi == pytest.approx(plan.CoverageTime(0.0, 20.0))
-
-
-def test_path_length_helper():
-    c = Circle((0.0, 0.0), 10.0, s=-1.0, k_e=K_E)  # ccw
-    assert PathLength(c, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 5.0)
-    assert PathLength(c, (0.0, 10.0), (10.0, 0.0)) == pytest.approx(math.pi * 15.0)
-    cw = dc.replace(c, s=1.0)
-    assert PathLength(cw, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 15.0)
 
 
 def test_plan_remembers_a_copy_of_its_parameters():

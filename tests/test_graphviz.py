@@ -1,7 +1,8 @@
-"""The top-level loop picture: systems and the signals between them, nothing else."""
+"""The top-level loop picture: systems and the signals between them, nothing else; and the
+canonical DOT text the committed diagrams are compared in."""
 
 from eaplan_drake.diagram import LOGGED_SIGNALS
-from eaplan_drake.output.graphviz import DiagramDots, LoopDot
+from eaplan_drake.output.graphviz import CanonicalDot, DiagramDots, LoopDot
 
 
 def test_loop_dot_merges_the_signals_between_two_systems_into_one_edge():
@@ -33,3 +34,10 @@ def test_the_loop_picture_shows_the_systems_not_the_loggers_or_exported_ports():
     assert '"total_power" -> "battery" [label="sum → power"]' in dot
     assert '"total_power" -> "sensor" [label="sum → power"]' in dot
     assert len(LOGGED_SIGNALS) > 10  # the detailed picture still exports every logged signal
+
+
+def test_canonical_dot_renumbers_ids_in_order():
+    a = "digraph _17 {\nsubgraph cluster17diagram {\ns12 -> s13\ns17in:0:e -> s12:u0:w\n}}"
+    b = "digraph _4 {\nsubgraph cluster4diagram {\ns2 -> s3\ns4in:0:e -> s2:u0:w\n}}"
+    assert CanonicalDot(a) == CanonicalDot(b)
+    assert CanonicalDot(a).startswith("digraph _0 {")

@@ -262,7 +262,7 @@ def _Fly(path, x0, wind, T, h=0.05):
 
 
 T_FLIGHT = 90.0
-T_STEADY = 45.0  # convergence from 100 m takes ≤ 25 s at the default k_e (see params.py)
+T_STEADY = 45.0  # convergence from 100 m takes ≤ 25 s at the default k_e (see GuidanceParams)
 
 
 @pytest.mark.parametrize("s", [1.0, -1.0])

@@ -1,5 +1,5 @@
-"""The package's layout: no import cycle (module-level or inside functions) and a command line
-whose ``--help`` imports no pydrake."""
+"""The package's layout: no import cycle (module-level or inside functions), a command line
+whose ``--help`` imports no pydrake, no module over 700 lines and no function over 80."""
 
 import ast
 import subprocess
@@ -117,3 +117,56 @@ def test_importing_the_package_imports_no_pydrake():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60
     )
     assert out.stdout.split() == ["False", "False"]
+
+
+MAX_MODULE_LINES = 700
+MAX_FUNCTION_LINES = 80
+
+
+def LongModules(limit: int = MAX_MODULE_LINES) -> list[tuple[str, int]]:
+    """The package's modules over ``limit`` lines, as (module, lines)."""
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        lines = len(path.read_text().splitlines())
+        if lines > limit:
+            out.append((_ModuleName(path), lines))
+    return out
+
+
+def _Functions(node, prefix: str = ""):
+    """(qualified name, def node) of every function and method below ``node``, nested ones too."""
+    for child in ast.iter_child_nodes(node):
+        if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            name = f"{prefix}{child.name}"
+            if not isinstance(child, ast.ClassDef):
+                yield name, child
+            yield from _Functions(child, f"{name}.")
+        else:
+            yield from _Functions(child, prefix)
+
+
+def LongFunctions(limit: int = MAX_FUNCTION_LINES) -> list[tuple[str, int]]:
+    """The package's functions and methods (nested ones too) over ``limit`` lines, counted from
+    the ``def`` line to the last line, docstring included, as (module:qualified name, lines)."""
+    out = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for name, node in _Functions(ast.parse(path.read_text())):
+            lines = node.end_lineno - node.lineno + 1
+            if lines > limit:
+                out.append((f"{_ModuleName(path)}:{name}", lines))
+    return out
+
+
+def test_the_size_finders_find_what_is_too_long():
+    assert "eaplan_drake.params.scenario" in [name for name, _ in LongModules(limit=100)]
+    names = [name for name, _ in LongFunctions(limit=10)]
+    assert "eaplan_drake.params.walk:_Walk" in names  # a function
+    assert "eaplan_drake.params.scenario:Scenario.Validate" in names  # a method
+
+
+def test_no_module_over_700_lines():
+    assert LongModules() == []
+
+
+def test_no_function_over_80_lines():
+    assert LongFunctions() == []

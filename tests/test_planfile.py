@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eaplan_drake.flight.coverage import APPROACH, ArcAngle, ZamboniCoverage
+from eaplan_drake.flight.coverage import ZamboniCoverage
 from eaplan_drake.flight.planfile import (
     REFERENCE_PLAN,
     LoadPlanFile,
@@ -18,6 +18,7 @@ from eaplan_drake.flight.planfile import (
     QuadraticForm,
     ReadPlanFile,
 )
+from eaplan_drake.flight.stages import APPROACH, ArcAngle
 from eaplan_drake.logfit.powerlog import ReferenceDirectory
 from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
 from eaplan_drake.resolve import MakePlanSource

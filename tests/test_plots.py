@@ -1,63 +1,13 @@
-"""Figures: the math behind them against analytic answers, and what the panels show."""
-
-import math
+"""Figures (eaplan_drake.output.plots): what the panels of a flight and of several policies show,
+and the saved files."""
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.flightlog import FlightLog, SampleQuality
-from eaplan_drake.output.plots import (
-    PlotFlight,
-    PlotPolicyComparison,
-    RobustRange,
-    SaveFlightPlots,
-    StagePoints,
-    UncoveredArea,
-    UncoveredRadius,
-)
+from eaplan_drake.output.plots import PlotFlight, PlotPolicyComparison, SaveFlightPlots
 from eaplan_drake.params import BatteryFault, Scenario
-
-
-def test_uncovered_area_of_a_square_swept_by_one_line():
-    square = [[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]]
-    line = np.array([[50.0, -10.0], [50.0, 110.0]])  # two points: the path is resampled
-    _, _, mask, fraction = UncoveredArea(square, line, radius=10.0, resolution=1.0)
-    assert fraction == pytest.approx(0.8, abs=0.02)  # a 20 m band of 100 m swept
-    assert not mask[:, 45:55].any() and mask[:, :38].all() and mask[:, 62:].all()
-    assert UncoveredArea(square, [[500.0, 500.0]], 10.0)[3] == 1.0
-    assert UncoveredArea(square, line, radius=80.0)[3] == 0.0
-    with pytest.raises(ValueError, match="resolution"):
-        UncoveredArea(square, line, radius=1.0, resolution=0.0)
-
-
-def test_uncovered_radius_is_half_the_widest_line_spacing():
-    # r1 = 70 + 10/2 = 75 m, r2(−1000) = sqrt(70² − 1000) m (paper 003 Eq. 14).
-    assert UncoveredRadius(Scenario()) == pytest.approx(75.0 - math.sqrt(3900.0), abs=1e-12)
-
-
-def test_robust_range_ignores_a_start_up_spike():
-    values = np.r_[48.0, 30.0 + np.sin(np.linspace(0.0, 20.0, 2000))]
-    lo, hi = RobustRange(values)
-    assert hi < 32.0 and lo > 28.0 and lo < 29.0
-    assert RobustRange([np.nan, np.inf]) == (0.0, 1.0)
-    lo, hi = RobustRange([5.0, 5.0], pad=0.1)
-    assert lo < 5.0 < hi
-
-
-def test_stage_points_follow_the_circle_from_entry_to_trigger():
-    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0, k_e=0.05)
-    stage = next(s for s in plan.Stages(0.0) if s.is_circle and s.primitive >= 0)
-    pts = StagePoints(stage, step=1.0)
-    r = np.linalg.norm(pts - np.asarray(stage.path.center), axis=1)
-    np.testing.assert_allclose(r, stage.path.radius, atol=1e-9)
-    np.testing.assert_allclose(pts[0], stage.entry, atol=1e-9)
-    np.testing.assert_allclose(pts[-1], stage.trigger, atol=1e-6)
-    length = np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))
-    assert length == pytest.approx(stage.length, rel=1e-3)
-    line = next(s for s in plan.Stages(0.0) if not s.is_circle)
-    np.testing.assert_allclose(StagePoints(line), [line.entry, line.trigger])
 
 
 def _Scenario():
@@ -182,15 +132,3 @@ def test_policy_comparison_has_a_path_panel_per_policy():
     plt.close(fig)
     with pytest.raises(ValueError, match="no flights"):
         PlotPolicyComparison({}, _Scenario())
-
-
-def test_draw_plan_labels_a_solid_stage():
-    from eaplan_drake.output.plots import DrawPlan
-
-    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0, k_e=0.05)
-    fig, ax = plt.subplots()
-    DrawPlan(ax, plan.Stages(0.0), label="plan")
-    handles, labels = ax.get_legend_handles_labels()
-    assert labels == ["plan"] and handles[0].get_linestyle() == "-"
-    assert len(ax.lines) == len(plan.Stages(0.0)) + 1  # every stage and the triggering points
-    plt.close(fig)

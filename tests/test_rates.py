@@ -1,16 +1,14 @@
 """Rate presets (eaplan_drake.rates): applying them, the studies' default, the tolerances, and one
-flight at the fast rates against the paper's."""
+flight at the fast rates against the paper's (the rule of one base period:
+tests/test_params_periods.py; ticked updates: tests/test_ticks.py)."""
 
 import dataclasses as dc
 
 import numpy as np
 import pytest
-from pydrake.systems.analysis import Simulator
 
-from eaplan_drake.diagram import MakeEaplanDiagram
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.loading import LoadNamedScenario
-from eaplan_drake.params import IntegerMultiple, TicksPerPeriod
 from eaplan_drake.rates import (
     DEFAULT_STUDY_RATES,
     RATE_PRESETS,
@@ -152,60 +150,3 @@ def test_rate_setting_labels():
     assert dc.replace(setting, averaging=False).Label() == "P20 S10 point"
     assert dc.replace(setting, estimator=5.0).Label() == "P20 S10 F5 avg"
     assert dc.replace(setting, sensor=20.0, estimator=20.0).Label() == "P20 S20 avg"
-
-
-def test_integer_multiple_within_the_rate_tolerance():
-    assert IntegerMultiple(3.0) == 3
-    assert IntegerMultiple(0.1 / 0.01) == 10  # 10.000000000000002
-    assert IntegerMultiple(2.0 * (1.0 + 1e-12)) == 2
-    assert IntegerMultiple(2.0 * (1.0 + 1e-6)) == 0
-    assert IntegerMultiple(1.5) == 0
-    assert IntegerMultiple(0.4) == 0
-
-
-def test_ticks_per_period_is_the_integer_multiple_of_the_base_tick():
-    assert TicksPerPeriod(0.1, 0.01) == 10
-    assert TicksPerPeriod(0.2, 0.05) == 4
-    assert TicksPerPeriod(0.01, 0.01) == 1  # the tick itself: its own period
-    assert TicksPerPeriod(0.015, 0.01) == 1  # not a multiple: its own period
-    assert TicksPerPeriod(0.01, 0.02) == 1  # faster than the tick
-    assert TicksPerPeriod(0.1, None) == 1
-
-
-def test_a_ticked_update_runs_on_every_nth_base_tick_or_at_its_own_period():
-    from pydrake.systems.framework import LeafSystem
-
-    from eaplan_drake.ticks import DeclareTickedDiscreteUpdateEvent
-
-    class Counter(LeafSystem):
-        def __init__(self, period, time_step):
-            super().__init__()
-            self.DeclareDiscreteState(1)
-            self.times = []
-            self.ticks = DeclareTickedDiscreteUpdateEvent(self, period, time_step, self._Update)
-
-        def _Update(self, context, discrete_state):
-            self.times.append(context.get_time())
-            discrete_state.get_mutable_value()[0] += 1.0
-
-    for period, time_step, ticks in ((0.05, 0.01, 5), (0.01, 0.01, 1), (0.015, 0.01, 1)):
-        counter = Counter(period, time_step)
-        simulator = Simulator(counter)
-        simulator.AdvanceTo(0.3 + 1e-9)
-        assert counter.ticks == ticks
-        expected = [k * period for k in range(int(round(0.3 / period)) + 1)]
-        np.testing.assert_allclose(counter.times, expected, rtol=0, atol=1e-12)
-        count = simulator.get_context().get_discrete_state_vector().GetAtIndex(0)
-        assert count == len(expected)  # the other ticks leave the state as it was
-
-
-def test_a_10_hz_point_sensor_and_filter_on_the_100_hz_tick_add_no_steps():
-    # k·0.1 and (10k)·0.01 differ in the last bit at about one k in six; declared at their own
-    # period the sensor and the filter would add ulp-long steps (1018 steps in 10 s).
-    scenario = LoadNamedScenario(
-        "plan_I", ["{'sensor': {'rate': 10.0}, 'estimator': {'rate': 10.0}}"]
-    )
-    simulator = Simulator(MakeEaplanDiagram(scenario, log_period=0.0))
-    simulator.Initialize()
-    simulator.AdvanceTo(10.0)
-    assert simulator.get_num_steps_taken() == 1000

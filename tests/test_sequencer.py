@@ -10,10 +10,11 @@ from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, Tr
 from pydrake.trajectories import PiecewisePolynomial
 
 from eaplan_drake.diagram import AddGuidedAircraft
-from eaplan_drake.flight.coverage import StageTime, StaticPlan, TurningRadius2, ZamboniCoverage
+from eaplan_drake.flight.coverage import StaticPlan, ZamboniCoverage
 from eaplan_drake.flight.paths import DESCRIPTOR_SIZE, PathFunction
 from eaplan_drake.flight.planfile import LoadPlanFile
 from eaplan_drake.flight.sequencer import StageSequencer, Triggered
+from eaplan_drake.flight.stages import StageTime, TurningRadius2
 from eaplan_drake.params import CoverageParams, GuidanceParams, Scenario, VehicleParams
 
 V_A = 15.0

@@ -218,6 +218,14 @@ def ParseComputationTable(text: str, source: str = "<table>") -> ComputationTabl
     (sorted, no duplicate keys) and, for σ > 1, form the full grid of the per-parameter values.
     Raises :class:`ComputationTableError` naming ``source`` and the line on any violation.
     """
+    rows, width = _TableRows(text, source)
+    grids, watts = _TableGrid(rows, width - 1, source)
+    return ComputationTable(grids, watts, source=source)
+
+
+def _TableRows(text: str, source: str) -> tuple[list[tuple[int, list[float]]], int]:
+    """The data rows of powprofiler CSV text as (line number, values), strictly increasing,
+    and the number of columns (:func:`ParseComputationTable`)."""
     rows: list[tuple[int, list[float]]] = []
     width = None
     for lineno, line in enumerate(text.splitlines(), start=1):
@@ -257,7 +265,12 @@ def ParseComputationTable(text: str, source: str = "<table>") -> ComputationTabl
         rows.append((lineno, values))
     if len(rows) < 2:
         raise ComputationTableError(f"{source}: needs at least 2 data rows, got {len(rows)}")
-    sigma = width - 1
+    return rows, width
+
+
+def _TableGrid(rows, sigma: int, source: str) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """The per-parameter grids of the σ = ``sigma`` parameters and the watts on that grid
+    (C order), checking that the ``rows`` of ``_TableRows`` are the full grid."""
     keys = np.array([r[1][:-1] for r in rows])
     watts = np.array([r[1][-1] for r in rows])
     grids = tuple(np.unique(keys[:, j]) for j in range(sigma))
@@ -290,7 +303,7 @@ def ParseComputationTable(text: str, source: str = "<table>") -> ComputationTabl
             f"{source}: incomplete grid: {len(rows)} rows but the parameter values "
             f"{[g.tolist() for g in grids]} need {math.prod(shape)}"
         )
-    return ComputationTable(grids, watts.reshape(shape), source=source)
+    return grids, watts.reshape(shape)
 
 
 def _Column(line: str, k: int) -> int:

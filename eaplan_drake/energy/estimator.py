@@ -146,7 +146,8 @@ class EnergyEstimator(LeafSystem):
     only), Δg_k = change of ``computation_power`` [W] since the previous step (known input through
     B, so a commanded change is followed without a transient) and A_d for the ``period`` input T
     [s] (re-discretised when T changes, kept per T; non-finite or non-positive T is ignored).
-    Q = q_n I (+ q_0 on α0, Q_dd on d) and R from :class:`EstimatorParams`; P(0) = p0 I.
+    Q = q_n I (+ q_0 on α0, Q_dd on d) and R from :class:`~eaplan_drake.params.EstimatorParams`;
+    P(0) = p0 I.
 
     Outputs (from the state only): ``energy_coefficients`` q̂ (m = 2r + 1, or 2r + 2 with the
     aperiodic load d last) [W],

@@ -68,7 +68,8 @@ def NoiseBlock(seed: int, block: int) -> tuple[np.ndarray, np.ndarray]:
 def NoiseSamples(params: SensorParams, first: int, count: int) -> tuple[np.ndarray, np.ndarray]:
     """Noise [W] and dropout flags of samples first … first + count − 1 (the sensor's own draws).
 
-    Returns (noise = σ z_k, dropped = u_k < p_drop) for the given :class:`SensorParams`.
+    Returns (noise = σ z_k, dropped = u_k < p_drop) for the given
+    :class:`~eaplan_drake.params.SensorParams`.
     """
     if first < 0 or count < 0:
         raise ValueError(f"first and count must be >= 0, got first={first}, count={count}")
@@ -97,7 +98,7 @@ def BaseStepsPerSample(rate: float, time_step: float) -> int:
     """m = 1 / (f h): base steps h [s] per sample of a sensor at f [Hz], an integer >= 1.
 
     Raises ValueError (naming ``sensor.rate``) when 1/f is not an integer multiple of h
-    (relative tolerance :data:`~eaplan_drake.params.RATE_TOLERANCE`)."""
+    (relative tolerance :data:`~eaplan_drake.params.periods.RATE_TOLERANCE`)."""
     ratio = 1.0 / (float(rate) * float(time_step))
     return _IntegerRatio(
         ratio,

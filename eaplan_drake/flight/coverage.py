@@ -1,10 +1,10 @@
 """Zamboni-like coverage plan of a convex polygon (paper 003 Sec. IV-A, Alg. 1, Eqs. 10, 14–15).
 
-A *plan* is a sequence of :class:`Stage` s: a normalised path function φ (line or circle, with its
-direction of travel s and field gain k_e), the triggering point p_Γ where the next stage starts,
-and the index of the primitive stage it repeats. After an *approach* stage (primitive −1: a
-circle of radius r2 that brings the aircraft onto the first line) the plan repeats four
-primitive stages
+A *plan* is a sequence of stages (:class:`~eaplan_drake.flight.stages.Stage`, whose module
+measures them): a normalised path function φ (line or circle, with its direction of travel s and
+field gain k_e), the triggering point p_Γ where the next stage starts, and the index of the
+primitive stage it repeats. After an *approach* stage (primitive −1: a circle of radius r2 that
+brings the aircraft onto the first line) the plan repeats four primitive stages
 
     0  first line ("down"-line), travelling along e1,
     1  left (counter-clockwise) half circle of radius r1 = r + x_d/2,
@@ -15,13 +15,14 @@ so each repetition moves the lines by the shift d = 2 r1 − 2 r2(c1) [m] (x_d a
 widens the spacing, fewer lines, shorter flight). c1 ∈ [r_min² − r², 0] keeps r2 ≥ r_min.
 The survey ends at the end of the last second line that fits in the polygon.
 
-Geometry. Lines are parallel to the chosen polygon edge (v_i, v_{i+1}) (``line_edge``). With n the
-unit normal of that edge pointing into the polygon, the local frame is e2 = n (the sweep
-direction) and e1 = n rotated by −90° (right-handed, so left turns in the local frame are left
-turns in the world). Line k sits at the offset η from the edge: the first line at x_d/2. A line
-runs over the polygon's extent of its swath band [η − x_d/2, η + x_d/2]; the two lines joined by a
-half circle end at the same ξ (the farther of the two extents: the aircraft may overfly the
-boundary), so every turn is tangent to both of its lines. For the reference rectangle
+Geometry (the polygon: :class:`~eaplan_drake.flight.polygon.CoveragePolygon`). Lines are
+parallel to the chosen polygon edge (v_i, v_{i+1}) (``line_edge``). With n the unit normal of
+that edge pointing into the polygon, the local frame is e2 = n (the sweep direction) and e1 = n
+rotated by −90° (right-handed, so left turns in the local frame are left turns in the world).
+Line k sits at the offset η from the edge: the first line at x_d/2. A line runs over the
+polygon's extent of its swath band [η − x_d/2, η + x_d/2]; the two lines joined by a half circle
+end at the same ξ (the farther of the two extents: the aircraft may overfly the boundary), so
+every turn is tangent to both of its lines. For the reference rectangle
 (:ref:`design-reference-scenario`; edge 0 = the left side x = −120) this gives the first line
 x = −115 from (−115, 146) to (−115, 11), the r1 turn to the line x = 35, and so on, as in the
 authors' plan file (without their 1 m drift of y per repetition).
@@ -42,259 +43,49 @@ input) is the same ratio with the rest and the whole plan taken at c̄1 instead:
 re-plans, but at the end of a plan flown below c̄1 it still holds the repetitions that the c̄1 plan
 would fit after the flown plan's last one (the number of repetitions is whole at each c1).
 
-What a completed plan covers (``tests/test_completion.py``): with swaths of half the widest line
-spacing flown, d/2, the lines cover the polygon from its near edge to the last second line's swath,
-but for small corners at slanted edges between coarse lines (a line spans the polygon over its own
-x_d band only). Beyond the last second line a strip at the far edge is left when the next
-repetition did not fit, narrower than d/2 + x_d/2: 2 % of the reference field at c1 = −1000, none
-at c1 = 0 (15 repetitions land on W − x_d/2). The first lines meet the second lines (the middle
-of the field is swept) only when the field is about 4 r1 wide across the lines or wider (the
-reference field: exactly 4 r1 = 300 m); a narrower field passes :func:`CheckCoverageGeometry`
-(which needs 2 r1 + x_d) and is left unswept between the last first line and the first second
-line.
+What a completed plan covers (``tests/test_coverage_completion.py``): with swaths of half the widest
+line spacing flown, d/2, the lines cover the polygon from its near edge to the last second line's
+swath, but for small corners at slanted edges between coarse lines (a line spans the polygon over
+its own x_d band only). Beyond the last second line a strip at the far edge is left when the next
+repetition did not fit, narrower than d/2 + x_d/2: 2 % of the reference field at c1 = −1000, none at
+c1 = 0 (15 repetitions land on W − x_d/2). The first lines meet the second lines (the middle of the
+field is swept) only when the field is about 4 r1 wide across the lines or wider (the reference
+field: exactly 4 r1 = 300 m); a narrower field passes :func:`CheckCoverageGeometry` (which needs 2
+r1 + x_d) and is left unswept between the last first line and the first second line.
 """
 
 import copy
-import dataclasses as dc
 import functools
 import math
 import typing
 
 import numpy as np
 
-from eaplan_drake.flight.paths import Circle, Line, PathFunction
+from eaplan_drake.flight.paths import Circle, Line
+from eaplan_drake.flight.polygon import CoveragePolygon
+from eaplan_drake.flight.stages import (
+    APPROACH,
+    NUM_PRIMITIVES,
+    ArcAngle,
+    Stage,
+    StageTime,
+    SurveyFraction,
+    TurningRadius2,
+)
 
 if typing.TYPE_CHECKING:  # no import at run time: params imports this module to validate
     from eaplan_drake.params import CoverageParams
 
 __all__ = [
-    "APPROACH",
-    "NUM_PRIMITIVES",
-    "Stage",
     "PlanSource",
     "StaticPlan",
     "ZamboniCoverage",
-    "CoveragePolygon",
     "CheckCoverageGeometry",
-    "GroundSpeed",
-    "PathLeft",
-    "StageGeometry",
-    "StageRemaining",
-    "SurveyFraction",
-    "StageTime",
     "CoverageTime",
     "MakeCoveragePlan",
     "MakeZamboniPlanSource",
     "ScalingFactors",
-    "TurningRadius2",
 ]
-
-APPROACH = -1
-"""Primitive index of the approach stage (not part of the survey)."""
-NUM_PRIMITIVES = 4
-"""Number of primitive stages of the Zamboni-like motion."""
-ANCHOR_SIZE = 4
-"""Length of :attr:`Stage.anchor` (the numbers a plan source needs to continue after a stage)."""
-
-_TOL = 1e-9
-
-
-def _rot_ccw(v) -> np.ndarray:
-    return np.array([-v[1], v[0]], dtype=float)
-
-
-def _rot_cw(v) -> np.ndarray:
-    return np.array([v[1], -v[0]], dtype=float)
-
-
-def TurningRadius2(c1: float, r: float) -> float:
-    """r2(c1) = sqrt(r² + c1) [m] (paper 003 Eq. 14)."""
-    return math.sqrt(r * r + c1)
-
-
-@dc.dataclass(frozen=True)
-class Stage:
-    """One stage Γ_i of a plan (paper 003 Def. II.1–II.5).
-
-    ``entry`` is the point where the stage nominally starts (the previous trigger, or the start
-    position projected onto the approach circle) and ``length`` the path length from entry to
-    trigger [m]; both serve the coverage time and the remaining fraction.
-    """
-
-    index: int
-    """Position of the stage in the plan (0 = first)."""
-    path: PathFunction
-    """Normalised path function with direction s and gain k_e."""
-    trigger: tuple[float, float]
-    """Triggering point p_Γ [m]."""
-    primitive: int
-    """Primitive stage 0..3, or −1 (:data:`APPROACH`) for a stage that is not repeated."""
-    c1: float
-    """Path parameter [m²] the stage was generated with."""
-    entry: tuple[float, float]
-    """Nominal start point [m]."""
-    length: float
-    """Nominal path length from entry to trigger [m]."""
-    anchor: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
-    """:data:`ANCHOR_SIZE` numbers with which the plan source regenerates the later stages."""
-
-    @property
-    def is_circle(self) -> bool:
-        return self.path.is_circle
-
-    def TriggerTangent(self) -> np.ndarray:
-        """Unit direction of travel at the triggering point."""
-        t = self.path.tangent(self.trigger)
-        return t / np.linalg.norm(t)
-
-    @functools.cached_property
-    def geometry(self) -> "StageGeometry":
-        """The numbers the per-step tests need, as plain floats (computed once per stage)."""
-        tx, ty = (float(v) for v in self.trigger)
-        ux, uy = (float(v) for v in self.TriggerTangent())
-        if self.path.is_circle:
-            ox, oy = (float(v) for v in self.path.center)
-            radius = float(self.path.radius)
-            ccw = (self.path.s < 0) == (self.path.a > 0)
-            angle = math.atan2(ty - oy, tx - ox)
-        else:
-            ox = oy = radius = angle = 0.0
-            ccw = False
-        return StageGeometry(
-            tx, ty, ux, uy, self.path.is_circle, ox, oy, radius, ccw, angle, float(self.length)
-        )
-
-    @functools.cached_property
-    def descriptor(self) -> np.ndarray:
-        """The path descriptor ``[a, b_x, b_y, c, s, k_e]`` (read-only array)."""
-        d = self.path.descriptor()
-        d.flags.writeable = False
-        return d
-
-
-class StageGeometry(typing.NamedTuple):
-    """A stage's triggering geometry as floats: trigger p_Γ = (tx, ty) [m], unit direction of
-    travel t̂_Γ = (ux, uy) there, and for a circle its centre o = (ox, oy) [m], radius [m],
-    direction (ccw) and the angle of p_Γ about o [rad]; ``length`` the stage's length [m]."""
-
-    tx: float
-    ty: float
-    ux: float
-    uy: float
-    is_circle: bool
-    ox: float
-    oy: float
-    radius: float
-    ccw: bool
-    trigger_angle: float
-    length: float
-
-
-_TWO_PI = 2.0 * math.pi
-
-
-def PathLeft(stage: Stage, position=None) -> float:
-    """Path length [m] left on ``stage`` from ``position`` to its triggering point, at most the
-    stage's length (all of it when ``position`` is None): on a line the distance to p_Γ along
-    t̂_Γ (≥ 0), on a circle R times the angle from p to p_Γ in the direction of travel."""
-    g = stage.geometry
-    if position is None:
-        return g.length
-    px, py = position[0], position[1]
-    if g.is_circle:
-        a_p = math.atan2(py - g.oy, px - g.ox)
-        d = (g.trigger_angle - a_p) if g.ccw else (a_p - g.trigger_angle)
-        return min(g.length, g.radius * (d % _TWO_PI))
-    return min(g.length, max(0.0, (g.tx - px) * g.ux + (g.ty - py) * g.uy))
-
-
-def StageRemaining(stage: Stage, position=None) -> float:
-    """Survey length [m] left on ``stage`` from ``position`` (:func:`PathLeft`; 0 for the
-    approach, which is not part of the survey)."""
-    if stage.primitive == APPROACH:
-        return 0.0
-    return PathLeft(stage, position)
-
-
-def SurveyFraction(stage: Stage, position, rest_length: float, total_length: float) -> float:
-    """Fraction [0, 1] of the survey still to fly: (L_rest + L_stage(p)) / L_total with L_rest
-    [m] the survey length after ``stage``, L_stage(p) = :func:`StageRemaining` and L_total [m]
-    the survey length of the whole plan (0 when L_total ≤ 0)."""
-    if total_length <= 0.0:
-        return 0.0
-    return min(1.0, max(0.0, (rest_length + StageRemaining(stage, position)) / total_length))
-
-
-def ArcAngle(path: PathFunction, start, end) -> float:
-    """Angle [rad] swept on circle ``path`` from ``start`` to ``end`` in its direction of travel,
-    in [0, 2π). Points off the circle are projected radially."""
-    o = path.center
-    a0 = math.atan2(start[1] - o[1], start[0] - o[0])
-    a1 = math.atan2(end[1] - o[1], end[0] - o[0])
-    # A positive normalised circle (a > 0) travels clockwise for s = +1; a < 0 reverses it.
-    ccw = (path.s < 0) == (path.a > 0)
-    d = (a1 - a0) if ccw else (a0 - a1)
-    d = d % (2.0 * math.pi)
-    if d > 2.0 * math.pi - 1e-9:
-        d = 0.0
-    return d
-
-
-def PathLength(path: PathFunction, start, end) -> float:
-    """Length [m] along ``path`` from ``start`` to ``end`` (lines: the projection on the direction
-    of travel, ≥ 0; circles: the arc in the direction of travel)."""
-    if path.is_circle:
-        return path.radius * ArcAngle(path, start, end)
-    t = path.tangent(end)
-    t = t / np.linalg.norm(t)
-    return max(0.0, float(np.dot(np.asarray(end, float) - np.asarray(start, float), t)))
-
-
-def GroundSpeed(course, airspeed: float, wind=(0.0, 0.0)) -> float:
-    """Ground speed [m/s] along the unit course ``course`` at ``airspeed`` [m/s] in ``wind`` [m/s]:
-    v_g = wᵀt̂ + sqrt(v_a² − (w × t̂)²) (the heading is crabbed into the wind)."""
-    t = np.asarray(course, dtype=float)
-    w = np.asarray(wind, dtype=float)
-    cross = w[0] * t[1] - w[1] * t[0]
-    return float(np.dot(w, t) + math.sqrt(airspeed * airspeed - cross * cross))
-
-
-def StageTime(stage: Stage, airspeed: float, wind=(0.0, 0.0)) -> float:
-    """Time [s] to fly ``stage`` from its entry to its trigger at ``airspeed`` in constant
-    ``wind`` (exact on the nominal path; midpoint rule over the arc for circles)."""
-    w = np.asarray(wind, dtype=float)
-    if not airspeed > 0.0 or not math.hypot(*w) < airspeed:
-        raise ValueError(f"StageTime: need 0 < |wind| < airspeed, got {w} and {airspeed}")
-    if stage.length <= 0.0:
-        return 0.0
-    path = stage.path
-    if not path.is_circle:
-        t = path.tangent(stage.trigger)
-        return stage.length / GroundSpeed(t / np.linalg.norm(t), airspeed, w)
-    if not w.any():
-        return stage.length / airspeed
-    o = path.center
-    ccw = (path.s < 0) == (path.a > 0)
-    a0 = math.atan2(stage.entry[1] - o[1], stage.entry[0] - o[0])
-    return _ArcTime(
-        float(stage.length), float(path.radius), a0, ccw, float(airspeed), float(w[0]), float(w[1])
-    )
-
-
-@functools.lru_cache(maxsize=4096)
-def _ArcTime(length, radius, a0, ccw, airspeed, wx, wy) -> float:
-    """Time [s] on a circle arc of ``length`` [m] and ``radius`` [m] entered at angle a0 [rad]
-    (counter-clockwise when ``ccw``) at ``airspeed`` [m/s] in wind (wx, wy) [m/s]: the midpoint
-    rule over ≈ 720 points per turn. A pure function of its floats, cached (a plan repeats the
-    same circles, and the sequencer's staircase re-times the rest of the plan at each stage)."""
-    angle = length / radius
-    n = max(16, int(math.ceil(angle / (2 * math.pi) * 720)))
-    theta = a0 + (np.arange(n) + 0.5) / n * angle * (1.0 if ccw else -1.0)
-    sign = 1.0 if ccw else -1.0
-    tx, ty = -np.sin(theta) * sign, np.cos(theta) * sign
-    cross = wx * ty - wy * tx
-    vg = wx * tx + wy * ty + np.sqrt(airspeed**2 - cross**2)
-    return float(np.sum(length / n / vg))
 
 
 def _Memoized(maxsize: int):
@@ -321,7 +112,7 @@ def _Memoized(maxsize: int):
 class PlanSource:
     """A plan as a function of the path parameter c1: the stages at c1, and the stages after a
     given stage when c1 changes in flight. Subclasses call ``PlanSource.__init__`` and implement
-    :meth:`_Stages` and :meth:`_StagesAfter`; the public methods cache their results per argument
+    ``_Stages`` and ``_StagesAfter``; the public methods cache their results per argument
     (the methods are pure). A plan pickles as its definition (the caches are left out).
 
     Args:
@@ -384,7 +175,7 @@ class PlanSource:
     # -- derived ---------------------------------------------------------------------------------
 
     def CheckC1(self, c1: float) -> float:
-        """c1 within :attr:`c1_bounds` (1e-6 tolerance, then clipped); ValueError otherwise."""
+        """c1 within ``c1_bounds`` (1e-6 tolerance, then clipped); ValueError otherwise."""
         lo, hi = self.c1_bounds
         if not math.isfinite(c1) or c1 < lo - 1e-6 or c1 > hi + 1e-6:
             raise ValueError(f"path parameter c1 must be in [{lo:g}, {hi:g}] m², got {c1!r}")
@@ -441,7 +232,7 @@ class PlanSource:
     def CoverageTimeBounds(
         self, c1_bounds=None, airspeed: float | None = None, wind=(0.0, 0.0)
     ) -> tuple[float, float]:
-        """(t(c̲1), t(c̄1)) [s] at ``airspeed`` (default :attr:`airspeed`), approach included:
+        """(t(c̲1), t(c̄1)) [s] at ``airspeed`` (default ``airspeed``), approach included:
         the two end points of the linear coverage-time model of Eq. 10."""
         lo, hi = self.c1_bounds if c1_bounds is None else c1_bounds
         v = self.airspeed if airspeed is None else airspeed
@@ -503,172 +294,6 @@ class StaticPlan(PlanSource):
 
     def _StagesAfter(self, index, anchor, c1) -> tuple[Stage, ...]:
         return self._stages[int(index) + 1 :]
-
-
-# -- polygon ------------------------------------------------------------------------------------
-
-
-def _ConvexHull(points: np.ndarray) -> list[int]:
-    """Indices of the strict convex hull vertices, counter-clockwise (monotone chain)."""
-    order = sorted(range(len(points)), key=lambda i: (points[i, 0], points[i, 1]))
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    scale = float(np.max(np.abs(points))) + 1.0
-    tol = 1e-12 * scale * scale
-    lower: list[int] = []
-    for i in order:
-        while len(lower) >= 2 and cross(points[lower[-2]], points[lower[-1]], points[i]) <= tol:
-            lower.pop()
-        lower.append(i)
-    upper: list[int] = []
-    for i in reversed(order):
-        while len(upper) >= 2 and cross(points[upper[-2]], points[upper[-1]], points[i]) <= tol:
-            upper.pop()
-        upper.append(i)
-    return lower[:-1] + upper[:-1]
-
-
-class CoveragePolygon:
-    """A validated convex polygon with the local sweep frame of one of its edges.
-
-    Local coordinates: p = origin + ξ e1 + η e2 with e2 the inward unit normal of edge
-    (v_i, v_{i+1}), e1 = e2 rotated by −90°, origin v_i. ``width`` W = max η over the polygon.
-    """
-
-    def __init__(self, vertices, line_edge: int = 0, key: str = "coverage"):
-        try:
-            P = np.array(vertices, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(f"{key}.polygon: expected a list of [x, y] vertices [m]") from None
-        if P.ndim != 2 or P.shape[1] != 2:
-            raise ValueError(f"{key}.polygon: expected a list of [x, y] vertices [m], got {P}")
-        if not np.all(np.isfinite(P)):
-            raise ValueError(f"{key}.polygon: vertices must be finite, got {P.tolist()}")
-        n = len(P)
-        if n < 3:
-            raise ValueError(f"{key}.polygon: degenerate polygon: needs >= 3 vertices, got {n}")
-        scale = float(np.ptp(P, axis=0).max())
-        for i in range(n):
-            for j in range(i + 1, n):
-                if np.linalg.norm(P[i] - P[j]) <= 1e-9 * max(scale, 1.0):
-                    raise ValueError(
-                        f"{key}.polygon: degenerate polygon: vertices {i} and {j} coincide "
-                        f"at {P[i].tolist()}"
-                    )
-        hull = _ConvexHull(P)
-        area = (
-            0.5
-            * abs(
-                sum(
-                    P[hull[k], 0] * P[hull[(k + 1) % len(hull)], 1]
-                    - P[hull[(k + 1) % len(hull)], 0] * P[hull[k], 1]
-                    for k in range(len(hull))
-                )
-            )
-            if len(hull) >= 3
-            else 0.0
-        )
-        if len(hull) < 3 or area <= 1e-9 * scale * scale:
-            raise ValueError(f"{key}.polygon: degenerate polygon: all vertices are collinear")
-        on_hull = set(hull)
-        for i in range(n):
-            if i in on_hull:
-                continue
-            if self._StrictlyInside(P[hull], P[i], scale):
-                raise ValueError(
-                    f"{key}.polygon: non-convex polygon: vertex {i} {P[i].tolist()} lies inside "
-                    "the convex hull of the others"
-                )
-            raise ValueError(
-                f"{key}.polygon: degenerate polygon: vertex {i} {P[i].tolist()} lies on a "
-                "straight edge between two others (collinear vertices)"
-            )
-        if not (isinstance(line_edge, int | np.integer) and 0 <= line_edge < n):
-            raise ValueError(
-                f"{key}.line_edge: must be an integer in [0, {n - 1}], got {line_edge}"
-            )
-        i, j = int(line_edge), (int(line_edge) + 1) % n
-        pos = {v: k for k, v in enumerate(hull)}
-        if (pos[i] - pos[j]) % n not in (1, n - 1):
-            raise ValueError(
-                f"{key}.line_edge: vertices {i} and {j} are not neighbours on the polygon's "
-                "boundary (the pair is a diagonal); list the vertices in boundary order or pick "
-                "another edge"
-            )
-        u = (P[j] - P[i]) / np.linalg.norm(P[j] - P[i])
-        e2 = _rot_ccw(u)
-        if np.min((P - P[i]) @ e2) < -1e-9 * scale:
-            e2 = -e2
-        self.vertices = P
-        self.hull = P[hull]
-        self.origin = P[i].copy()
-        self.e2 = e2
-        self.e1 = _rot_cw(e2)
-        self.local = np.column_stack(
-            [(self.hull - self.origin) @ self.e1, (self.hull - self.origin) @ self.e2]
-        )
-        self.local[np.abs(self.local[:, 1]) < 1e-9 * scale, 1] = 0.0
-        self.width = float(self.local[:, 1].max())
-        self.area = area
-        self._scale = scale
-
-    @staticmethod
-    def _StrictlyInside(hull: np.ndarray, p: np.ndarray, scale: float) -> bool:
-        m = len(hull)
-        for k in range(m):
-            a, b = hull[k], hull[(k + 1) % m]
-            cross = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
-            if cross <= 1e-9 * scale * scale:
-                return False
-        return True
-
-    def ToWorld(self, xi: float, eta: float) -> np.ndarray:
-        return self.origin + xi * self.e1 + eta * self.e2
-
-    def Chord(self, eta: float) -> tuple[float, float]:
-        """(ξ_lo, ξ_hi): the extent of the polygon along e1 at offset η (clipped to [0, W])."""
-        eta = min(max(eta, 0.0), self.width)
-        L = self.local
-        values = []
-        m = len(L)
-        for k in range(m):
-            (xa, ya), (xb, yb) = L[k], L[(k + 1) % m]
-            if ya == yb:
-                if abs(ya - eta) <= 1e-9 * self._scale:
-                    values += [xa, xb]
-                continue
-            if (ya - eta) * (yb - eta) <= 0.0:
-                values.append(xa + (eta - ya) / (yb - ya) * (xb - xa))
-        if not values:  # numerically at a vertex
-            k = int(np.argmin(np.abs(L[:, 1] - eta)))
-            values = [L[k, 0]]
-        return min(values), max(values)
-
-    def __getstate__(self):
-        state = dict(self.__dict__)
-        state.pop("_band_extents", None)  # a cache, rebuilt on use
-        return state
-
-    def BandExtent(self, eta: float, half_width: float) -> tuple[float, float]:
-        """(ξ_lo, ξ_hi): the polygon's extent along e1 over the band [η − h, η + h] (cached per
-        (η, h): a plan's repetitions share their bands with their neighbours)."""
-        cache = self.__dict__.setdefault("_band_extents", {})
-        key = (eta, half_width)
-        extent = cache.get(key)
-        if extent is None:
-            if len(cache) >= 4096:
-                cache.clear()
-            extent = cache[key] = self._BandExtent(eta, half_width)
-        return extent
-
-    def _BandExtent(self, eta: float, half_width: float) -> tuple[float, float]:
-        lo_eta = min(max(eta - half_width, 0.0), self.width)
-        hi_eta = min(max(eta + half_width, 0.0), self.width)
-        etas = [lo_eta, hi_eta] + [e for e in self.local[:, 1] if lo_eta < e < hi_eta]
-        chords = [self.Chord(e) for e in etas]
-        return min(c[0] for c in chords), max(c[1] for c in chords)
 
 
 # -- Alg. 1 -------------------------------------------------------------------------------------

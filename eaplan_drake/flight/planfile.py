@@ -38,20 +38,15 @@ import numpy as np
 from pydrake import symbolic as sym
 
 from eaplan_drake.files import ReadTextFile
-from eaplan_drake.flight.coverage import (
-    ANCHOR_SIZE,
-    APPROACH,
-    NUM_PRIMITIVES,
-    PathLength,
-    PlanSource,
-    Stage,
-)
+from eaplan_drake.flight.coverage import PlanSource
 from eaplan_drake.flight.paths import PathFunction
+from eaplan_drake.flight.stages import ANCHOR_SIZE, APPROACH, NUM_PRIMITIVES, PathLength, Stage
 
 __all__ = [
     "PlanFileError",
     "Expression",
     "ParseExpression",
+    "ParsePlanText",
     "PlanStageSpec",
     "PlanFile",
     "ReadPlanFile",

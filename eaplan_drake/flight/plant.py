@@ -322,11 +322,76 @@ class _FixedWingPorts:
         output.SetAtIndex(0, MotionPower(self._AppliedRate(context), self._power_coefficients))
 
 
+class _ContinuousFixedWing(_FixedWingPorts):
+    """The outputs of the state and the dynamics of :class:`FixedWingPlant`, in any scalar type
+    (the template's class adds the ``LeafSystem_[T]`` base and the constructor)."""
+
+    def _DeclareStateOutputs(self):
+        """The ``position``, ``heading`` and ``ground_velocity`` outputs."""
+        xc = self.xc_ticket()
+        self._position_port = self.DeclareVectorOutputPort(
+            "position", 2, self._CalcPosition, prerequisites_of_calc={xc}
+        )
+        self._heading_port = self.DeclareVectorOutputPort(
+            "heading", 1, self._CalcHeading, prerequisites_of_calc={xc}
+        )
+        self._ground_velocity_port = self.DeclareVectorOutputPort(
+            "ground_velocity",
+            2,
+            self._CalcGroundVelocity,
+            prerequisites_of_calc={xc, self._wind_port.ticket()},
+        )
+
+    def _DeclareKinematicsPort(self):
+        """The ``kinematics`` output (declared after ``motion_power``)."""
+        self._kinematics_port = self.DeclareVectorOutputPort(
+            "kinematics",
+            5,
+            self._CalcKinematics,
+            prerequisites_of_calc={self.xc_ticket(), self._wind_port.ticket()},
+        )
+
+    def _StateList(self, context):
+        return context.get_continuous_state_vector().CopyToVector().tolist()
+
+    def _CalcPosition(self, context, output):
+        x, y, _ = self._StateList(context)
+        output.SetAtIndex(0, x)
+        output.SetAtIndex(1, y)
+
+    def _CalcHeading(self, context, output):
+        _, _, heading = self._StateList(context)
+        output.SetAtIndex(0, heading)
+
+    def _CalcGroundVelocity(self, context, output):
+        _, _, heading = self._StateList(context)
+        wind = self._wind_port.Eval(context).tolist()
+        vx, vy = _GroundVelocity(heading, wind, self._airspeed)
+        output.SetAtIndex(0, vx)
+        output.SetAtIndex(1, vy)
+
+    def _CalcKinematics(self, context, output):
+        x, y, heading = self._StateList(context)
+        wind = self._wind_port.Eval(context).tolist()
+        output.SetFromVector([x, y, heading, *_GroundVelocity(heading, wind, self._airspeed)])
+
+    def DoCalcTimeDerivatives(self, context, derivatives):
+        derivatives.SetFromVector(
+            FixedWingDynamics(
+                self._StateList(context),
+                self._u_port.Eval(context)[0],
+                self._wind_port.Eval(context).tolist(),
+                self._airspeed,
+                self._max_rate,
+            )
+        )
+
+
 @TemplateSystem.define("FixedWingPlant_")
 def FixedWingPlant_(T):
     """Scalar-type template of :class:`FixedWingPlant` (float, AutoDiffXd, Expression)."""
 
-    class Impl(_FixedWingPorts, LeafSystem_[T]):
+    class Impl(_ContinuousFixedWing, LeafSystem_[T]):
         """Fixed-wing unicycle at constant airspeed in wind, with its motion power (continuous).
 
         ṗ = v_a [cos ψ, sin ψ] + w,   ψ̇ = sat(u, ψ̇_max),   ψ̇_max = g tan(φ_max) / v_a,
@@ -373,26 +438,9 @@ def FixedWingPlant_(T):
             vehicle = copy.deepcopy(vehicle)
             self.DeclareContinuousState(BasicVector_[T](self._InitialState(vehicle)))
             self._DeclareInputs(vehicle)
-            xc = self.xc_ticket()
-            self._position_port = self.DeclareVectorOutputPort(
-                "position", 2, self._CalcPosition, prerequisites_of_calc={xc}
-            )
-            self._heading_port = self.DeclareVectorOutputPort(
-                "heading", 1, self._CalcHeading, prerequisites_of_calc={xc}
-            )
-            self._ground_velocity_port = self.DeclareVectorOutputPort(
-                "ground_velocity",
-                2,
-                self._CalcGroundVelocity,
-                prerequisites_of_calc={xc, self._wind_port.ticket()},
-            )
+            self._DeclareStateOutputs()
             self._DeclareMotionPowerPort()
-            self._kinematics_port = self.DeclareVectorOutputPort(
-                "kinematics",
-                5,
-                self._CalcKinematics,
-                prerequisites_of_calc={xc, self._wind_port.ticket()},
-            )
+            self._DeclareKinematicsPort()
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other._vehicle, converter=converter)
@@ -401,41 +449,6 @@ def FixedWingPlant_(T):
             """Sets (x, y) [m] and ψ [rad] in ``context``."""
             context.get_mutable_continuous_state_vector().SetFromVector(
                 self._PoseVector(position, heading)
-            )
-
-        def _StateList(self, context):
-            return context.get_continuous_state_vector().CopyToVector().tolist()
-
-        def _CalcPosition(self, context, output):
-            x, y, _ = self._StateList(context)
-            output.SetAtIndex(0, x)
-            output.SetAtIndex(1, y)
-
-        def _CalcHeading(self, context, output):
-            _, _, heading = self._StateList(context)
-            output.SetAtIndex(0, heading)
-
-        def _CalcGroundVelocity(self, context, output):
-            _, _, heading = self._StateList(context)
-            wind = self._wind_port.Eval(context).tolist()
-            vx, vy = _GroundVelocity(heading, wind, self._airspeed)
-            output.SetAtIndex(0, vx)
-            output.SetAtIndex(1, vy)
-
-        def _CalcKinematics(self, context, output):
-            x, y, heading = self._StateList(context)
-            wind = self._wind_port.Eval(context).tolist()
-            output.SetFromVector([x, y, heading, *_GroundVelocity(heading, wind, self._airspeed)])
-
-        def DoCalcTimeDerivatives(self, context, derivatives):
-            derivatives.SetFromVector(
-                FixedWingDynamics(
-                    self._StateList(context),
-                    self._u_port.Eval(context)[0],
-                    self._wind_port.Eval(context).tolist(),
-                    self._airspeed,
-                    self._max_rate,
-                )
             )
 
     return Impl

@@ -71,11 +71,11 @@ import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from eaplan_drake.flight.coverage import (
+from eaplan_drake.flight.coverage import PlanSource
+from eaplan_drake.flight.stages import (
     ANCHOR_SIZE,
     NUM_PRIMITIVES,
     PathLeft,
-    PlanSource,
     Stage,
     StageTime,
     SurveyFraction,
@@ -206,14 +206,19 @@ class StageSequencer(LeafSystem):
                 f"StageSequencer.path_parameter_grid: need finite values, got {grid!r}"
             )
         self._time_step = float(time_step)
+        self._DeclareState(c1, initial_period, update_period)
+        self._DeclarePorts()
 
+    def _DeclareState(self, c1: float, initial_period: float, update_period: float) -> None:
+        """The discrete state at the plan's first stage flown at ``c1`` [m²], with the period
+        guess [s], and the ticked update every ``update_period`` [s]."""
         # The remaining fraction is measured in survey lengths at the reference c1 = c̄1 (the
         # finest coverage), so that it does not jump when c1 is re-planned.
         self._c1_ref = self._c1_hi
         self._memo_key = None
         self._survey_memo_key = None
-        self._total = plan.SurveyLength(self._c1_ref)
-        first = plan.Stages(c1)[0]
+        self._total = self._plan.SurveyLength(self._c1_ref)
+        first = self._plan.Stages(c1)[0]
         mode = SequencerMode(np.zeros(len(SequencerMode._fields)))
         mode.c1 = c1
         mode.stage = first.index
@@ -234,6 +239,8 @@ class StageSequencer(LeafSystem):
             self, ticks * self._time_step, self._time_step, self._Update
         )
 
+    def _DeclarePorts(self) -> None:
+        """The input ports and the output ports, in the order of the class docstring."""
         self._position_port = self.DeclareVectorInputPort("position", 2)
         self._path_parameters_port = self.DeclareVectorInputPort("path_parameters", 1)
         xd = {self.xd_ticket()}

@@ -1,10 +1,11 @@
 """Matplotlib figures of a flight, in the spirit of paper 003 Fig. 6, and of several policies.
 
-The math behind the pictures is in plain functions over numpy (:func:`UncoveredArea`,
-:func:`RobustRange`, :func:`StagePoints`, :func:`TimeMarkStep`, :func:`Runs`,
-:func:`ParameterSteps`), each tested on its own. Each ``Plot*`` function draws into a given
-``Axes`` (so notebooks can compose them): :func:`PlotFlight` makes the five-panel figure of one
-flight (path, energy, parameters, battery, planner) and :func:`SaveFlightPlots` writes it as PNG;
+The math behind the pictures is in plain functions over numpy
+(:mod:`~eaplan_drake.output.plot_math`), each tested on its own; the path panel and its pieces
+are in :mod:`~eaplan_drake.output.path_plot`, the colours and the shared texts in
+:mod:`~eaplan_drake.output.plot_style`. Each ``Plot*`` function draws into a given ``Axes`` (so
+notebooks can compose them): :func:`PlotFlight` makes the five-panel figure of one flight (path,
+energy, parameters, battery, planner) and :func:`SaveFlightPlots` writes it as PNG;
 :func:`PlotPolicyComparison` draws several flights of one world side by side.
 
 The conventions of every figure here and of the Meshcat replay
@@ -15,279 +16,56 @@ The conventions of every figure here and of the Meshcat replay
   c1 = r2² − r² [m²] ≤ 0 (r the turning radius of the plan, r2 = sqrt(r² + c1) ≤ r the inner
   one; c1 = 0 flies the densest lines), the computation parameters c2 are in the computation
   table's units (fps for the PedNet detector);
-- the flown path is coloured by the quality ½c̃1 + ½c̃2 on :data:`QUALITY_COLORMAP`, the integrand
-  of the summary's quality;
-- one colour, one meaning (:data:`COLORS`); on every time panel the planner's warm-up is shaded
-  grey and each battery fault is a red dotted line; text goes in legends outside the data.
+- the flown path is coloured by the quality ½c̃1 + ½c̃2 on
+  :data:`~eaplan_drake.output.plot_style.QUALITY_COLORMAP`, the integrand of the summary's
+  quality;
+- one colour, one meaning (:data:`~eaplan_drake.output.plot_style.COLORS`); on every time panel
+  the planner's warm-up is shaded grey and each battery fault is a red dotted line; text goes in
+  legends outside the data.
 """
 
-import math
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.collections import LineCollection
-from matplotlib.colors import Normalize
-from matplotlib.legend_handler import HandlerBase
 from matplotlib.lines import Line2D
-from matplotlib.markers import MarkerStyle
 from matplotlib.patches import Patch
-from matplotlib.path import Path as MplPath
 from matplotlib.ticker import MaxNLocator
-from matplotlib.transforms import Affine2D, ScaledTranslation
 
 from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.files import AtomicWrite
-from eaplan_drake.flight.coverage import APPROACH, TurningRadius2
 from eaplan_drake.flightlog import (
     FlightLog,
     NormalisedParameters,
     NormaliseParameters,
-    SampleQuality,
 )
-from eaplan_drake.params import Scenario, WindVector
+from eaplan_drake.output.path_plot import PlotPath
+from eaplan_drake.output.plot_math import RobustRange, Runs
+from eaplan_drake.output.plot_style import (
+    _C1_NOTE,
+    _POWER_BUDGET_POLICIES,
+    _QUALITY_LABEL,
+    COLORS,
+    InfeasibleCause,
+    _Cause,
+    _EndText,
+    _Faults,
+    _PathBounds,
+)
+from eaplan_drake.params import Scenario
 
 __all__ = [
-    "COLORS",
-    "DrawPlan",
-    "DrawSurveyArea",
-    "InfeasibleCause",
     "MarkEvents",
-    "ParameterSteps",
     "PlotFlight",
     "PlotParameters",
-    "PlotPath",
     "PlotPlanner",
     "PlotPolicyComparison",
     "PlotPower",
     "PlotSoc",
-    "QUALITY_COLORMAP",
-    "RobustRange",
-    "Runs",
     "SaveFigure",
     "SaveFlightPlots",
     "SavePolicyComparison",
-    "StagePoints",
-    "TimeMarkStep",
-    "UncoveredArea",
-    "UncoveredRadius",
 ]
-
-QUALITY_COLORMAP = "viridis"
-"""The colour map of the quality ½c̃1 + ½c̃2 ∈ [0, 1] (purple 0, yellow 1), in the figures and in
-the replay."""
-
-COLORS = {
-    "c1": "tab:blue",  # c1 / c̃1, and the markers where c1 changed
-    "c2": "tab:orange",  # c2 / c̃2
-    "soc": "tab:green",  # SoC b
-    "reserve": "tab:cyan",  # the reserve SoC
-    "fault": "tab:red",  # battery faults
-    "warmup": "0.88",  # the planner's warm-up
-    "measured": "0.7",  # measured power Υ
-    "true": "k",  # true power y
-    "estimated": "tab:brown",  # estimated power ŷ
-    "period": "tab:purple",  # period T
-    "budget": "tab:olive",  # the paper's output bound b·Q_c·V
-    "infeasible": "tab:pink",  # planner steps whose constraint could not be met
-    "progress": "k",  # start, end, time marks and direction on the path
-    "wind": "0.3",  # the wind arrow
-    "uncovered": "0.3",  # the part of the area not covered
-}
-"""One colour, one meaning, in every figure here (and the replay's bars)."""
-
-_QUALITY_LABEL = "quality ½c̃1 + ½c̃2 [-]"
-_C1_NOTE = "c1 = r2² − r² ≤ 0"
-_POWER_BUDGET_POLICIES = ("paper", "greedy_authors")
-_INFEASIBLE_CAUSES = {
-    # policy: (why a step is infeasible, what the policy flew then, what mission_feasible = 1 says)
-    "paper": (
-        "the paper's output constraint y ≤ b·Q_c·V cannot hold",
-        "flew the lowest c2 there",
-        "y ≤ b·Q_c·V holds at some c2",
-    ),
-    "greedy_authors": (
-        "the paper's output constraint y ≤ b·Q_c·V cannot hold",
-        "flew the lowest c2 there",
-        "y ≤ b·Q_c·V holds at some c2",
-    ),
-    "mpc": (
-        "even the lowest plan ends below reserve + margin",
-        "flew the lowest plan there",
-        "the lowest plan ends at or above reserve + margin",
-    ),
-    "greedy": (
-        "no c1 of the grid ends at or above the reserve",
-        "moved c1 towards the lowest there",
-        "some c1 of the grid ends at or above the reserve",
-    ),
-    "static": ("never: the static policy does not plan", "", "always, never re-planned"),
-}
-
-
-def InfeasibleCause(policy: str) -> tuple[str, str]:
-    """(why, what was flown) for the planner steps of ``policy`` with ``mission_feasible`` = 0,
-    e.g. for ``paper``: ("the paper's output constraint y ≤ b·Q_c·V cannot hold", "flew the
-    lowest c2 there")."""
-    return _Cause(policy)[:2]
-
-
-def _Cause(policy: str) -> tuple[str, str, str]:
-    return _INFEASIBLE_CAUSES.get(
-        policy,
-        (
-            "the policy's constraint cannot be met",
-            "flew the policy's fallback there",
-            "the policy's constraint can be met",
-        ),
-    )
-
-
-# --- the math behind the pictures -----------------------------------------------------------
-
-
-def StagePoints(stage, step: float = 2.0) -> np.ndarray:
-    """Points [m] (k × 2) of a plan stage from its entry to its trigger: the segment of a line,
-    or the arc of a circle in the direction of travel, sampled every ≈ ``step`` metres."""
-    entry = np.asarray(stage.entry, dtype=float)
-    if not stage.is_circle:
-        return np.array([entry, np.asarray(stage.trigger, dtype=float)])
-    o, r = np.asarray(stage.path.center, dtype=float), float(stage.path.radius)
-    v, t = entry - o, stage.path.tangent(entry)
-    sign = 1.0 if v[0] * t[1] - v[1] * t[0] > 0 else -1.0  # counter-clockwise: +1
-    n = 2 + int(stage.length / step)
-    a = math.atan2(v[1], v[0]) + sign * np.linspace(0.0, stage.length / r, n)
-    return o + r * np.column_stack([np.cos(a), np.sin(a)])
-
-
-def UncoveredArea(
-    polygon, path, radius: float, resolution: float = 2.0
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """The part of the survey ``polygon`` [m] farther than ``radius`` [m] from the flown
-    ``path`` [m] (k × 2), on a grid of cell size ``resolution`` [m].
-
-    Returns ``(x, y, mask, fraction)``: the cell centres along x and y, the boolean mask
-    (len(y) × len(x), True = inside the polygon and not covered) and the uncovered fraction of
-    the polygon's cells.
-    """
-    poly = np.asarray(polygon, dtype=float)
-    if resolution <= 0.0 or radius < 0.0:
-        raise ValueError(f"resolution must be > 0 and radius ≥ 0, got {resolution}, {radius}")
-    lo, hi = poly.min(axis=0), poly.max(axis=0)
-    x = np.arange(lo[0] + resolution / 2, hi[0], resolution)
-    y = np.arange(lo[1] + resolution / 2, hi[1], resolution)
-    gx, gy = np.meshgrid(x, y)
-    inside = MplPath(poly).contains_points(np.column_stack([gx.ravel(), gy.ravel()]))
-    inside = inside.reshape(gx.shape)
-    p = np.asarray(path, dtype=float).reshape(-1, 2)
-    # Resample the path so consecutive points are at most half a cell apart.
-    dense = [p[:1]]
-    for a, b in zip(p[:-1], p[1:], strict=True):
-        k = max(1, int(np.ceil(2.0 * np.linalg.norm(b - a) / resolution)))
-        dense.append(a + np.outer(np.arange(1, k + 1) / k, b - a))
-    p = np.vstack(dense)
-    # Mark the cells the path visits (with a margin of the radius), then dilate by a disk.
-    reach = int(np.ceil(radius / resolution)) + 1
-    ix = np.floor((p[:, 0] - lo[0]) / resolution).astype(int) + reach
-    iy = np.floor((p[:, 1] - lo[1]) / resolution).astype(int) + reach
-    hit = np.zeros((len(y) + 2 * reach, len(x) + 2 * reach), dtype=bool)
-    ok = (ix >= 0) & (ix < hit.shape[1]) & (iy >= 0) & (iy < hit.shape[0])
-    hit[iy[ok], ix[ok]] = True
-    covered = np.zeros(gx.shape, dtype=bool)
-    for di in range(-reach, reach + 1):
-        for dj in range(-reach, reach + 1):
-            if (abs(di) - 0.5) ** 2 + (abs(dj) - 0.5) ** 2 > (radius / resolution) ** 2 and (
-                di or dj
-            ):
-                continue
-            covered |= hit[reach + di : reach + di + len(y), reach + dj : reach + dj + len(x)]
-    mask = inside & ~covered
-    fraction = float(mask.sum() / inside.sum()) if inside.any() else 0.0
-    return x, y, mask, fraction
-
-
-def UncoveredRadius(scenario: Scenario) -> float:
-    """Half the widest line spacing of the plan [m]: (2 r1 − 2 r2(c̲1)) / 2 with
-    r1 = r + x_d/2 and r2 = sqrt(r² + c1) (paper 003 Eq. 14): a point of the survey area
-    farther than this from every flown line was not swept at any c1."""
-    cov = scenario.coverage
-    r1 = cov.turning_radius + 0.5 * cov.swath_spacing
-    lo = float(scenario.planner.path_parameter_bounds[0])
-    return r1 - TurningRadius2(lo, cov.turning_radius)
-
-
-def RobustRange(values, quantiles=(0.005, 0.995), pad: float = 0.08) -> tuple[float, float]:
-    """(low, high) axis limits that hold the ``quantiles`` of the finite ``values`` widened by
-    ``pad`` × their span on each side: a short transient (the estimator's start-up) does not set
-    the range."""
-    v = np.asarray(values, dtype=float).ravel()
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return 0.0, 1.0
-    lo, hi = np.quantile(v, quantiles)
-    span = hi - lo if hi > lo else max(abs(hi), 1.0)
-    return float(lo - pad * span), float(hi + pad * span)
-
-
-def TimeMarkStep(duration: float, max_marks: int = 10) -> float:
-    """The spacing [s] of time marks over ``duration`` [s]: the smallest of 5, 10, 20, 30, 60,
-    120, 300, 600, 1200, 1800, 3600 s (then whole hours) that puts at most ``max_marks`` marks."""
-    duration = max(float(duration), 0.0)
-    for step in (5, 10, 20, 30, 60, 120, 300, 600, 1200, 1800, 3600):
-        if duration / step <= max_marks:
-            return float(step)
-    return 3600.0 * math.ceil(duration / (max_marks * 3600.0))
-
-
-def Runs(mask) -> list[tuple[int, int]]:
-    """The runs of True in the boolean ``mask``: (first, last + 1) index pairs, in order."""
-    m = np.asarray(mask, dtype=bool).ravel()
-    edges = np.diff(np.r_[0, m.astype(np.int8), 0])
-    starts, stops = np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()
-    return list(zip(starts, stops, strict=True))
-
-
-def ParameterSteps(times, values, threshold: float, merge: float = 5.0) -> np.ndarray:
-    """Indices of the samples where ``values`` steps by at least ``threshold`` from the previous
-    sample (a planner's change of c1, not its small rate-limited drift); a step within ``merge``
-    [s] after a kept one is left out."""
-    t = np.asarray(times, dtype=float)
-    v = np.asarray(values, dtype=float).ravel()
-    if v.size < 2:
-        return np.zeros(0, dtype=int)
-    steps = np.flatnonzero(np.abs(np.diff(v)) >= threshold) + 1
-    kept: list[int] = []
-    for i in steps:
-        if not kept or t[i] - t[kept[-1]] > merge:
-            kept.append(int(i))
-    return np.array(kept, dtype=int)
-
-
-# --- drawing helpers --------------------------------------------------------------------------
-
-
-def DrawSurveyArea(ax, polygon, start=None) -> None:
-    """The survey polygon [m] (grey) and the start position (black dot), equal axes."""
-    poly = np.asarray(polygon, dtype=float)
-    ax.fill(poly[:, 0], poly[:, 1], color="0.92", zorder=0, label="survey area")
-    if start is not None:
-        ax.plot(*np.asarray(start, dtype=float), "o", color=COLORS["progress"], ms=5, label="start")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-
-
-def DrawPlan(ax, stages, color="tab:blue", lw: float = 1.0, label=None, triggers=True) -> None:
-    """The stages of a plan: lines and arcs (the approach dashed), triggering points as dots."""
-    # The label goes on the first solid stage, so the legend shows a solid line.
-    labelled = next((i for i, s in enumerate(stages) if s.primitive != APPROACH), 0)
-    for i, s in enumerate(stages):
-        pts = StagePoints(s)
-        ls = "--" if s.primitive == APPROACH else "-"
-        ax.plot(*pts.T, color=color, lw=lw, ls=ls, label=label if i == labelled else None)
-    if triggers and len(stages):
-        trig = np.array([s.trigger for s in stages])
-        ax.plot(*trig.T, ".", color=color, ms=3)
 
 
 def MarkEvents(ax, scenario: Scenario, legend: bool = True) -> list:
@@ -307,24 +85,6 @@ def MarkEvents(ax, scenario: Scenario, legend: bool = True) -> list:
     return handles if legend else []
 
 
-def _Faults(scenario: Scenario) -> str:
-    return ", ".join(f"−{100 * f.soc_drop:g} % at {f.time:g} s" for f in scenario.battery.faults)
-
-
-def _EndText(summary: dict) -> str:
-    status = summary.get("status", "?")
-    t = summary.get("duration", float("nan"))
-    if status == "complete":
-        return f"survey complete at {t:.1f} s"
-    if status == "reserve_reached":
-        return f"reserve reached at {t:.1f} s"
-    if status == "brownout":
-        return f"brown-out at {t:.1f} s"
-    if status == "time_limit":
-        return f"time limit {t:.0f} s"
-    return f"{status} at {t:.1f} s"
-
-
 def _TimeRange(log: FlightLog) -> tuple[float, float]:
     """The time axis [s] of every time panel: the flight, and 2.5 % more on the right so the end
     marker is drawn whole."""
@@ -335,188 +95,6 @@ def _TimeRange(log: FlightLog) -> tuple[float, float]:
 def _Policy(log: FlightLog, scenario: Scenario | None) -> str:
     default = scenario.planner.policy if scenario is not None else "?"
     return str(log.summary.get("policy", default))
-
-
-class _ColourmapHandle(Line2D):
-    """A legend entry drawn as a line through :data:`QUALITY_COLORMAP` (:class:`_ColourmapLine`)."""
-
-
-class _ColourmapLine(HandlerBase):
-    def create_artists(
-        self, legend, orig_handle, xdescent, ydescent, width, height, fontsize, trans
-    ):
-        x = np.linspace(-xdescent, width - xdescent, 9)
-        y = np.full_like(x, 0.5 * height - ydescent)
-        points = np.column_stack([x, y])
-        lc = LineCollection(
-            np.stack([points[:-1], points[1:]], axis=1),
-            cmap=QUALITY_COLORMAP,
-            norm=Normalize(0.0, 1.0),
-            linewidth=2.5,
-            transform=trans,
-        )
-        lc.set_array(np.linspace(0.0, 1.0, 8))
-        return [lc]
-
-
-def _Arrowhead(angle_deg: float) -> MarkerStyle:
-    """A triangle marker pointing at ``angle_deg`` (counter-clockwise from +x; on the path's
-    equal-aspect axes the direction of the data)."""
-    return MarkerStyle(">", transform=Affine2D().rotate_deg(angle_deg))
-
-
-def _WindArrow(ax, scenario: Scenario) -> None:
-    """The wind as an arrow with its speed in the band above the flown area (axes coordinates,
-    the direction true on the equal-aspect axes)."""
-    speed = float(scenario.wind.speed)
-    if speed <= 0.0:
-        ax.text(0.02, 0.97, "no wind", transform=ax.transAxes, va="top", fontsize="small")
-        return
-    w = WindVector(1.0, scenario.wind.direction_deg)
-    half = 13.0 / 72.0  # half the arrow's length [inch]
-    anchor = (0.07, 0.935)
-
-    def shifted(sign):
-        return ax.transAxes + ScaledTranslation(
-            sign * half * w[0], sign * half * w[1], ax.figure.dpi_scale_trans
-        )
-
-    ax.annotate(
-        "",
-        xy=anchor,
-        xycoords=shifted(1.0),
-        xytext=anchor,
-        textcoords=shifted(-1.0),
-        arrowprops={"arrowstyle": "-|>", "color": COLORS["wind"], "lw": 1.8},
-    )
-    ax.text(
-        anchor[0] + 0.05,
-        anchor[1],
-        f"wind {speed:g} m/s towards {scenario.wind.direction_deg:g}°",
-        transform=ax.transAxes,
-        color=COLORS["wind"],
-        va="center",
-        fontsize="small",
-    )
-
-
-def _PathMarks(ax, log: FlightLog, scenario: Scenario, labels: bool = True) -> list:
-    """Time marks (dot and "60 s") every :func:`TimeMarkStep` seconds, direction arrowheads
-    between them, a star where each battery fault came and a diamond where c1 changed; returns
-    legend handles. Labels sit beside the path, on the left of the direction of flight."""
-    t, p = log.times, np.asarray(log["position"], dtype=float)
-    if len(t) < 3:
-        return []
-    t0, t1 = float(t[0]), float(t[-1])
-    step = TimeMarkStep(t1 - t0)
-
-    def index(at):
-        return int(np.clip(np.searchsorted(t, at), 1, len(t) - 2))
-
-    def direction(i):
-        d = p[min(i + 2, len(p) - 1)] - p[max(i - 2, 0)]
-        n = float(np.hypot(*d))
-        return d / n if n > 0 else np.array([1.0, 0.0])
-
-    def label(i, text, side, color, **kw):
-        d = direction(i)
-        n = side * np.array([-d[1], d[0]])  # +1: left of the direction of flight
-        ax.annotate(
-            text,
-            xy=p[i],
-            xytext=8.0 * n,
-            textcoords="offset points",
-            ha="left" if n[0] > 0.35 else "right" if n[0] < -0.35 else "center",
-            va="bottom" if n[1] > 0.35 else "top" if n[1] < -0.35 else "center",
-            fontsize=7,
-            color=color,
-            zorder=7,
-            **kw,
-        )
-
-    handles = []
-    marks = np.arange(t0 + step, t1 - 0.2 * step, step)
-    if marks.size:
-        idx = [index(m) for m in marks]
-        ax.plot(*p[idx].T, "o", color=COLORS["progress"], ms=3.5, ls="", zorder=6)
-        if labels:
-            for i, m in zip(idx, marks, strict=True):
-                box = {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8}
-                label(i, f"{m - t0:g} s", 1.0, COLORS["progress"], bbox=box)
-        handles.append(
-            Line2D(
-                [],
-                [],
-                marker="o",
-                color=COLORS["progress"],
-                ms=3.5,
-                ls="",
-                label=f"every {step:g} s",
-            )
-        )
-    for a in np.arange(t0 + step / 6.0, t1 - 0.1 * step, step / 3.0):
-        i = index(a)
-        d = direction(i)
-        ax.plot(
-            *p[i],
-            marker=_Arrowhead(math.degrees(math.atan2(d[1], d[0]))),
-            color=COLORS["progress"],
-            ms=7,
-            ls="",
-            zorder=6,
-        )
-    handles.append(
-        Line2D([], [], marker=">", color=COLORS["progress"], ms=7, ls="", label="direction")
-    )
-    faults = [f for f in scenario.battery.faults if t0 <= f.time <= t1]
-    for f in faults:
-        i = index(f.time)
-        ax.plot(*p[i], "*", color=COLORS["fault"], mec="k", mew=0.5, ms=12, ls="", zorder=7)
-        if labels:
-            box = {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8}
-            label(i, f"fault {f.time:g} s", -1.0, COLORS["fault"], bbox=box)
-    if faults:
-        handles.append(
-            Line2D(
-                [],
-                [],
-                marker="*",
-                color=COLORS["fault"],
-                mec="k",
-                mew=0.5,
-                ms=11,
-                ls="",
-                label=f"fault ({_Faults(scenario)})",
-            )
-        )
-    lo, hi = _PathBounds(log, scenario)
-    changes = ParameterSteps(t, log["path_parameters"][:, 0], 0.05 * (hi - lo))
-    if changes.size:
-        ax.plot(*p[changes].T, "D", mfc="white", mec=COLORS["c1"], mew=1.5, ms=6, ls="", zorder=6)
-        handles.append(
-            Line2D(
-                [],
-                [],
-                marker="D",
-                mfc="white",
-                mec=COLORS["c1"],
-                mew=1.5,
-                ms=6,
-                ls="",
-                label="c1 changed (a step ≥ 5 % of its range)",
-            )
-        )
-    return handles
-
-
-def _PathBounds(log: FlightLog, scenario: Scenario | None) -> tuple[float, float]:
-    bounds = log.summary.get("path_parameter_bounds")
-    if bounds is None and scenario is not None:
-        bounds = scenario.planner.path_parameter_bounds
-    if bounds is None:
-        c1 = log["path_parameters"][:, 0]
-        bounds = (float(np.min(c1)), float(np.max(c1)))
-    return float(bounds[0]), float(bounds[1])
 
 
 def _ComputationBounds(log: FlightLog, scenario: Scenario | None) -> tuple[np.ndarray, np.ndarray]:
@@ -546,99 +124,6 @@ def _FinishTimePanel(ax, handles, ncol: int, time_range, title: str) -> None:
 
 
 # --- the panels -------------------------------------------------------------------------------
-
-
-def PlotPath(
-    ax,
-    log: FlightLog,
-    scenario: Scenario,
-    colour_by: str = "quality",
-    legend: bool = True,
-    colorbar: bool = True,
-    time_marks: bool = True,
-):
-    """Flown path over the survey polygon, coloured by the quality ½c̃1 + ½c̃2
-    (``colour_by="quality"``, as in the replay) or by c̃1 alone (``"path"``), on
-    :data:`QUALITY_COLORMAP`; with ``time_marks`` a dot and its time every
-    :func:`TimeMarkStep` seconds, arrowheads in the direction of flight, a red star where each
-    battery fault came and a blue diamond where c1 changed. The end point with its status, the
-    part of the area left uncovered (hatched) when the survey did not complete, and the wind
-    arrow in a band above the flown area. Returns the path's ``LineCollection`` (for a shared
-    colour bar)."""
-    p = np.asarray(log["position"], dtype=float)
-    poly = np.asarray(scenario.coverage.polygon, dtype=float)
-    DrawSurveyArea(ax, poly, p[0])
-    if colour_by == "quality":
-        value, label = SampleQuality(log), _QUALITY_LABEL
-    elif colour_by == "path":
-        value = NormaliseParameters(log["path_parameters"][:, 0], *_PathBounds(log, scenario))
-        label = f"c̃1 [-] ({_C1_NOTE}, normalised)"
-    else:
-        raise ValueError(f"colour_by: 'quality' or 'path', got {colour_by!r}")
-    segments = np.stack([p[:-1], p[1:]], axis=1)
-    lc = LineCollection(
-        segments, cmap=QUALITY_COLORMAP, norm=Normalize(0.0, 1.0), linewidth=1.4, zorder=2
-    )
-    lc.set_array(value[:-1])
-    ax.add_collection(lc)
-    legend_ax = ax
-    if colorbar:  # below the path, the legend below it: the path keeps the column's width
-        bar = ax.figure.colorbar(lc, ax=ax, label=label, location="bottom", shrink=0.6, aspect=40)
-        bar.ax.xaxis.set_label_position("top")
-        legend_ax = bar.ax
-    handles = [
-        Patch(color="0.92", label="survey area"),
-        _ColourmapHandle([], [], label=f"flown path, colour: {label}"),
-        Line2D([], [], marker="o", color=COLORS["progress"], ls="", ms=5, label="start"),
-    ]
-    s = log.summary
-    end = {"marker": "X", "color": COLORS["progress"], "mec": "white", "mew": 0.8, "ls": ""}
-    ax.plot(*p[-1], ms=10, zorder=8, **end)
-    handles.append(Line2D([], [], ms=9, label="end: " + _EndText(s), **end))
-    if time_marks:
-        handles += _PathMarks(ax, log, scenario)
-    if s and not s.get("completed", True):
-        x, y, mask, fraction = UncoveredArea(poly, p, UncoveredRadius(scenario))
-        if mask.any():
-            ax.contourf(
-                x,
-                y,
-                mask.astype(float),
-                levels=[0.5, 1.5],
-                colors="none",
-                hatches=["////"],
-                zorder=1,
-            )
-            ax.contour(
-                x, y, mask.astype(float), levels=[0.5], colors=COLORS["uncovered"], linewidths=0.8
-            )
-            handles.append(
-                Patch(
-                    facecolor="none",
-                    edgecolor=COLORS["uncovered"],
-                    hatch="////",
-                    label=f"not covered ({100 * fraction:.0f} % of the area)",
-                )
-            )
-    lo = np.min(np.vstack([p, poly]), axis=0)
-    hi = np.max(np.vstack([p, poly]), axis=0)
-    span = np.maximum(hi - lo, 1.0)
-    # A band above the flown area for the wind arrow; the legend goes below the axes.
-    ax.set_xlim(lo[0] - 0.05 * span[0], hi[0] + 0.05 * span[0])
-    ax.set_ylim(lo[1] - 0.06 * span[1], hi[1] + 0.17 * span[1])
-    _WindArrow(ax, scenario)
-    if legend:
-        legend_ax.legend(
-            handles=handles,
-            handler_map={_ColourmapHandle: _ColourmapLine()},
-            loc="upper center",
-            bbox_to_anchor=(0.5, -0.07 if legend_ax is ax else -2.6),
-            fontsize="small",
-            ncol=2,
-            frameon=False,
-        )
-    ax.set_title("path")
-    return lc
 
 
 def PlotPower(ax, log: FlightLog, scenario: Scenario | None = None) -> None:
@@ -798,9 +283,10 @@ def PlotParameters(ax, log: FlightLog, scenario: Scenario | None = None) -> None
 
 def PlotPlanner(ax, log: FlightLog, scenario: Scenario) -> None:
     """What the planner logged: the steps with ``mission_feasible`` = 0 shaded, with their cause
-    (:func:`InfeasibleCause`); for the policies of the paper's output constraint y ≤ b·Q_c·V
-    (paper, greedy_authors) the bound ``power_budget`` b·Q_c·V and the estimated power ŷ the
-    planner predicts from, otherwise ``mission_feasible`` itself (1: the constraint holds)."""
+    (:func:`~eaplan_drake.output.plot_style.InfeasibleCause`); for the policies of the paper's
+    output constraint y ≤ b·Q_c·V (paper, greedy_authors) the bound ``power_budget`` b·Q_c·V and
+    the estimated power ŷ the planner predicts from, otherwise ``mission_feasible`` itself (1: the
+    constraint holds)."""
     t = log.times
     policy = _Policy(log, scenario)
     handles = MarkEvents(ax, scenario)

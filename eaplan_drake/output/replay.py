@@ -10,13 +10,13 @@ What the scene shows (x, y as in the plots; z up):
 
 - the survey polygon (grey) and the lines of the plan at the initial c1 (thin, dark grey);
 - the flown path, revealed as time passes, coloured by the quality ½c̃1 + ½c̃2 on the colour map
-  of ``flight.png`` (:data:`~eaplan_drake.output.plots.QUALITY_COLORMAP`, viridis: purple = 0,
+  of ``flight.png`` (:data:`~eaplan_drake.output.plot_style.QUALITY_COLORMAP`, viridis: purple = 0,
   yellow = 1);
 - the aircraft as a small body and wing, turned to its heading ψ;
 - the wind as a dark grey arrow beside the area (length ∝ speed: 1 hm per 10 m/s);
 - three bars to the right of the area that follow time: SoC b (green, with the reserve as a cyan
   tick), c̃1 (blue) and c̃2 (orange), each full length at 1 (the colours of ``flight.png``,
-  :data:`~eaplan_drake.output.plots.COLORS`); and a text line at the top of the page with t, b,
+  :data:`~eaplan_drake.output.plot_style.COLORS`); and a text line at the top of the page with t, b,
   c̃1 (c1 [m²]) and c̃2 (c2 [table units]) at the slider's time.
 
 The parameters are normalised as in the figures, c̃ = (c − c̲)/(c̄ − c̲) ∈ [0, 1]; the path
@@ -147,7 +147,7 @@ def _Flat(meshcat, path, outline_xy, z, rgba):
 
 
 def _Planned(scenario: Scenario):
-    from eaplan_drake.output.plots import StagePoints
+    from eaplan_drake.output.plot_math import StagePoints
     from eaplan_drake.resolve import MakePlanSource
 
     c1 = scenario.planner.initial_path_parameters[0]
@@ -224,6 +224,118 @@ def _OverlayHtml(times, soc, c1, c2, c1n, c2n) -> str:
 """
 
 
+def _DrawArea(meshcat, scenario: Scenario, poly) -> None:
+    """The survey area (grey, ``poly`` in scene units) and the initial plan's stages."""
+    from pydrake.geometry import Rgba
+
+    _Flat(meshcat, "/eaplan/survey_area", poly, 0.0, Rgba(0.8, 0.8, 0.8, 1.0))
+    for i, pts in enumerate(_Planned(scenario)):
+        v = np.vstack([pts.T / UNIT, np.full(len(pts), 0.01)])
+        meshcat.SetLine(f"/eaplan/plan/{i}", v, 1.0, Rgba(0.75, 0.8, 0.9, 1.0))
+
+
+def _DrawFlown(meshcat, p, quality) -> list[tuple[int, int, int]]:
+    """The flown path ``p`` [scene units] as ribbons coloured by the quality on
+    :data:`~eaplan_drake.output.plot_style.QUALITY_COLORMAP`; returns its :func:`PathChunks`."""
+    import matplotlib
+
+    from eaplan_drake.output.plot_style import QUALITY_COLORMAP
+
+    cmap = matplotlib.colormaps[QUALITY_COLORMAP]
+    num_colours = 8
+    chunks = PathChunks(quality, num_colours=num_colours)
+    for k, (a, b, colour) in enumerate(chunks):
+        xy, faces = Ribbon(p[a : b + 1], 0.025)
+        v = np.vstack([xy.T, np.full(len(xy), _ALTITUDE)])
+        rgb = cmap((colour + 0.5) / num_colours)
+        meshcat.SetTriangleMesh(f"/eaplan/flown/{k}", v, faces.T.astype(np.int32), _Rgba(rgb))
+    return chunks
+
+
+def _DrawWind(meshcat, scenario: Scenario, lo_xy, hi_xy) -> None:
+    """The wind arrow above the top-left corner of the area (none without wind)."""
+    from eaplan_drake.output.plot_style import COLORS
+
+    w = scenario.wind.Vector()
+    speed = float(np.linalg.norm(w))
+    if speed > 0.0:
+        outline = ArrowOutline(speed / 10.0, 0.06)
+        angle = np.arctan2(w[1], w[0])
+        rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        base = np.array([lo_xy[0], hi_xy[1] + 0.3])
+        _Flat(meshcat, "/eaplan/wind", outline @ rot.T + base, 0.02, _Color(COLORS["wind"]))
+
+
+def _DrawBars(meshcat, scenario: Scenario, bars: dict, lo_xy, hi_xy) -> None:
+    """The bars (``bars``: name → (values, rgb)) to the right of the area, growing along +y from
+    their base, each in a white frame, and the reserve's tick on the SoC bar."""
+    from pydrake.geometry import Box, Rgba
+    from pydrake.math import RigidTransform
+
+    from eaplan_drake.output.plot_style import COLORS
+
+    x_bar = hi_xy[0] + 0.4
+    for j, (name, (_, rgb)) in enumerate(bars.items()):
+        x = x_bar + 0.3 * j
+        frame = np.array(
+            [[x - 0.08, lo_xy[1] - 0.03], [x + 0.08, lo_xy[1] - 0.03]]
+            + [
+                [x + 0.08, lo_xy[1] + _BAR_LENGTH + 0.03],
+                [x - 0.08, lo_xy[1] + _BAR_LENGTH + 0.03],
+            ]
+        )
+        _Flat(meshcat, f"/eaplan/bars/{name}_frame", frame, 0.005, Rgba(1.0, 1.0, 1.0, 1.0))
+        meshcat.SetObject(f"/eaplan/bars/{name}/value/box", Box(_BAR_WIDTH, 1.0, 0.02), _Rgba(rgb))
+        meshcat.SetTransform(f"/eaplan/bars/{name}/value/box", RigidTransform([0.0, 0.5, 0.0]))
+        meshcat.SetTransform(f"/eaplan/bars/{name}", RigidTransform([x, lo_xy[1], 0.02]))
+    reserve_y = lo_xy[1] + _BAR_LENGTH * scenario.battery.reserve_soc
+    meshcat.SetObject("/eaplan/bars/reserve", Box(0.22, 0.02, 0.03), _Color(COLORS["reserve"]))
+    meshcat.SetTransform("/eaplan/bars/reserve", RigidTransform([x_bar, reserve_y, 0.03]))
+
+
+def _DrawAircraft(meshcat, lo_xy, hi_xy) -> None:
+    """The aircraft (a body along +x and a wing along y) and the camera over the scene."""
+    from pydrake.geometry import Box, Rgba
+    from pydrake.math import RigidTransform
+
+    meshcat.SetObject("/eaplan/aircraft/body", Box(0.12, 0.025, 0.02), Rgba(0.1, 0.1, 0.1, 1))
+    meshcat.SetObject("/eaplan/aircraft/wing", Box(0.03, 0.16, 0.008), Rgba(0.8, 0.1, 0.1, 1))
+    meshcat.SetTransform("/eaplan/aircraft/wing", RigidTransform([0.01, 0.0, 0.0]))
+    centre = 0.5 * (lo_xy + hi_xy) + np.array([0.3, 0.0])
+    extent = float(np.max(hi_xy - lo_xy)) + 1.0
+    meshcat.SetCameraPose(
+        [centre[0], centre[1] - 0.35 * extent, 1.1 * extent], [centre[0], centre[1], 0.0]
+    )
+
+
+def _Record(meshcat, log: FlightLog, frames, p, heading, bars: dict, chunks, frame_rate) -> None:
+    """Records the animation at ``frames``: the aircraft's pose, the bars' lengths and the
+    flown ribbons shown up to each frame's time."""
+    from pydrake.math import RigidTransform, RotationMatrix
+
+    t0 = float(log.times[0])
+    meshcat.StartRecording(frames_per_second=frame_rate, set_visualizations_while_recording=False)
+    chunk_start = np.array([log.times[a] for a, _, _ in chunks])
+    shown = np.zeros(len(chunks), dtype=bool)
+    for i in frames:
+        t = float(log.times[i]) - t0
+        pose = RigidTransform(
+            RotationMatrix.MakeZRotation(float(heading[i])), [p[i, 0], p[i, 1], _ALTITUDE]
+        )
+        meshcat.SetTransform("/eaplan/aircraft", pose, t)
+        for name, (values, _) in bars.items():
+            scale = [1.0, _BAR_LENGTH * max(float(values[i]), 1e-3), 1.0]
+            meshcat.SetProperty(f"/eaplan/bars/{name}/value", "scale", scale, t)
+        visible = chunk_start <= log.times[i] + 1e-9
+        for k in np.flatnonzero(visible != shown):
+            meshcat.SetProperty(f"/eaplan/flown/{k}", "visible", bool(visible[k]), t)
+        if i == frames[0]:
+            for k in np.flatnonzero(~visible):
+                meshcat.SetProperty(f"/eaplan/flown/{k}", "visible", False, t)
+        shown = visible
+    meshcat.StopRecording()
+
+
 def SaveFlightReplay(
     log: FlightLog,
     scenario: Scenario,
@@ -238,10 +350,10 @@ def SaveFlightReplay(
     of flight at 5 Hz). ``meshcat`` is a ``pydrake.geometry.Meshcat`` to draw into (it is
     cleared); by default a new one is made and closed again.
     """
-    from pydrake.geometry import Box, Meshcat, Rgba
-    from pydrake.math import RigidTransform, RotationMatrix
+    from matplotlib.colors import to_rgb
+    from pydrake.geometry import Meshcat
 
-    from eaplan_drake.output.plots import COLORS, QUALITY_COLORMAP
+    from eaplan_drake.output.plot_style import COLORS
 
     path = Path(path)
     frames = ReplayFrames(log.times, frame_rate)
@@ -253,102 +365,24 @@ def SaveFlightReplay(
         meshcat.Delete()
         meshcat.DeleteRecording()
         meshcat.SetProperty("/Axes", "visible", False)
-        t0 = float(log.times[0])
         p = np.asarray(log["position"], dtype=float) / UNIT
         heading = np.asarray(log["heading"], dtype=float)[:, 0]
         soc = np.asarray(log["soc"], dtype=float)[:, 0]
         c1 = np.asarray(log["path_parameters"], dtype=float)[:, 0]
         c2 = np.asarray(log["computation_parameters"], dtype=float).reshape(len(log.times), -1)
         c1n, c2n = NormalisedParameters(log)
-        quality = SampleQuality(log)
-
         poly = np.asarray(scenario.coverage.polygon, dtype=float) / UNIT
-        _Flat(meshcat, "/eaplan/survey_area", poly, 0.0, Rgba(0.8, 0.8, 0.8, 1.0))
-        for i, pts in enumerate(_Planned(scenario)):
-            v = np.vstack([pts.T / UNIT, np.full(len(pts), 0.01)])
-            meshcat.SetLine(f"/eaplan/plan/{i}", v, 1.0, Rgba(0.75, 0.8, 0.9, 1.0))
-
-        import matplotlib
-        from matplotlib.colors import to_rgb
-
-        cmap = matplotlib.colormaps[QUALITY_COLORMAP]
-        num_colours = 8
-        chunks = PathChunks(quality, num_colours=num_colours)
-        for k, (a, b, colour) in enumerate(chunks):
-            xy, faces = Ribbon(p[a : b + 1], 0.025)
-            v = np.vstack([xy.T, np.full(len(xy), _ALTITUDE)])
-            rgb = cmap((colour + 0.5) / num_colours)
-            meshcat.SetTriangleMesh(f"/eaplan/flown/{k}", v, faces.T.astype(np.int32), _Rgba(rgb))
-
+        _DrawArea(meshcat, scenario, poly)
+        chunks = _DrawFlown(meshcat, p, SampleQuality(log))
         lo_xy, hi_xy = np.min(np.vstack([p, poly]), axis=0), np.max(np.vstack([p, poly]), axis=0)
-        # Wind arrow above the top-left corner of the area.
-        w = scenario.wind.Vector()
-        speed = float(np.linalg.norm(w))
-        if speed > 0.0:
-            outline = ArrowOutline(speed / 10.0, 0.06)
-            angle = np.arctan2(w[1], w[0])
-            rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-            base = np.array([lo_xy[0], hi_xy[1] + 0.3])
-            _Flat(meshcat, "/eaplan/wind", outline @ rot.T + base, 0.02, _Color(COLORS["wind"]))
-
-        # Bars to the right of the area, growing along +y from their base.
+        _DrawWind(meshcat, scenario, lo_xy, hi_xy)
         bars = {
             name: (values, to_rgb(COLORS[name]))
             for name, values in zip(("soc", "c1", "c2"), (soc, c1n, c2n), strict=True)
         }
-        x_bar = hi_xy[0] + 0.4
-        for j, (name, (_, rgb)) in enumerate(bars.items()):
-            x = x_bar + 0.3 * j
-            frame = np.array(
-                [[x - 0.08, lo_xy[1] - 0.03], [x + 0.08, lo_xy[1] - 0.03]]
-                + [
-                    [x + 0.08, lo_xy[1] + _BAR_LENGTH + 0.03],
-                    [x - 0.08, lo_xy[1] + _BAR_LENGTH + 0.03],
-                ]
-            )
-            _Flat(meshcat, f"/eaplan/bars/{name}_frame", frame, 0.005, Rgba(1.0, 1.0, 1.0, 1.0))
-            meshcat.SetObject(
-                f"/eaplan/bars/{name}/value/box", Box(_BAR_WIDTH, 1.0, 0.02), _Rgba(rgb)
-            )
-            meshcat.SetTransform(f"/eaplan/bars/{name}/value/box", RigidTransform([0.0, 0.5, 0.0]))
-            meshcat.SetTransform(f"/eaplan/bars/{name}", RigidTransform([x, lo_xy[1], 0.02]))
-        reserve_y = lo_xy[1] + _BAR_LENGTH * scenario.battery.reserve_soc
-        meshcat.SetObject("/eaplan/bars/reserve", Box(0.22, 0.02, 0.03), _Color(COLORS["reserve"]))
-        meshcat.SetTransform("/eaplan/bars/reserve", RigidTransform([x_bar, reserve_y, 0.03]))
-
-        # The aircraft: a body along +x and a wing along y, turned to the heading.
-        meshcat.SetObject("/eaplan/aircraft/body", Box(0.12, 0.025, 0.02), Rgba(0.1, 0.1, 0.1, 1))
-        meshcat.SetObject("/eaplan/aircraft/wing", Box(0.03, 0.16, 0.008), Rgba(0.8, 0.1, 0.1, 1))
-        meshcat.SetTransform("/eaplan/aircraft/wing", RigidTransform([0.01, 0.0, 0.0]))
-
-        centre = 0.5 * (lo_xy + hi_xy) + np.array([0.3, 0.0])
-        extent = float(np.max(hi_xy - lo_xy)) + 1.0
-        meshcat.SetCameraPose(
-            [centre[0], centre[1] - 0.35 * extent, 1.1 * extent], [centre[0], centre[1], 0.0]
-        )
-
-        meshcat.StartRecording(
-            frames_per_second=frame_rate, set_visualizations_while_recording=False
-        )
-        chunk_start = np.array([log.times[a] for a, _, _ in chunks])
-        shown = np.zeros(len(chunks), dtype=bool)
-        for i in frames:
-            t = float(log.times[i]) - t0
-            pose = RigidTransform(
-                RotationMatrix.MakeZRotation(float(heading[i])), [p[i, 0], p[i, 1], _ALTITUDE]
-            )
-            meshcat.SetTransform("/eaplan/aircraft", pose, t)
-            for name, (values, _) in bars.items():
-                scale = [1.0, _BAR_LENGTH * max(float(values[i]), 1e-3), 1.0]
-                meshcat.SetProperty(f"/eaplan/bars/{name}/value", "scale", scale, t)
-            visible = chunk_start <= log.times[i] + 1e-9
-            for k in np.flatnonzero(visible != shown):
-                meshcat.SetProperty(f"/eaplan/flown/{k}", "visible", bool(visible[k]), t)
-            if i == frames[0]:
-                for k in np.flatnonzero(~visible):
-                    meshcat.SetProperty(f"/eaplan/flown/{k}", "visible", False, t)
-            shown = visible
-        meshcat.StopRecording()
+        _DrawBars(meshcat, scenario, bars, lo_xy, hi_xy)
+        _DrawAircraft(meshcat, lo_xy, hi_xy)
+        _Record(meshcat, log, frames, p, heading, bars, chunks, frame_rate)
         meshcat.PublishRecording()
         html = meshcat.StaticHtml()
     finally:

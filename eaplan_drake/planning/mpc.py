@@ -757,6 +757,6 @@ class MissionProgram:
         return InitializeAutoDiff(out, self.scale * J @ ExtractGradient(x))
 
     def Solve(self, initial_guess):
-        """Solves from ``initial_guess`` (layout of :attr:`variables`) with the chosen solver."""
+        """Solves from ``initial_guess`` (layout of ``variables``) with the chosen solver."""
         guess = np.clip(np.asarray(initial_guess, dtype=float), 0.0, 1.0)
         return self.solver.Solve(self.prog, guess, self.options)

@@ -227,7 +227,7 @@ class PlannerProgram:
         return InitializeAutoDiff(out, J @ ExtractGradient(x))
 
     def Solve(self, initial_guess):
-        """Solves from ``initial_guess`` (layout of :attr:`variables`) with the chosen solver."""
+        """Solves from ``initial_guess`` (layout of ``variables``) with the chosen solver."""
         return self.solver.Solve(self.prog, np.asarray(initial_guess, float), self.options)
 
 
@@ -421,7 +421,7 @@ class Planner:
     def Relax(self, f_half, soc: float, computation_parameters, warm_start=None):
         """Solves the NLP (Eq. 16) of one step: ``f_half`` the free response at t0 + k·h/2
         (at least 2N + 1 samples) [W], b0 = ``soc`` [-], the parameters c_prev applied now and an
-        initial guess (layout of :attr:`PlannerProgram.variables`; None: the lowest).
+        initial guess (layout of ``PlannerProgram.variables``; None: the lowest).
 
         Returns (x, status, solve time [s]); x is None after a failed solve (never raised).
         """
@@ -440,6 +440,47 @@ class Planner:
         if ok and not np.all(np.isfinite(x)):
             x, status = None, "non-finite solution"
         return x, status, solve_time
+
+    def _Unpack(self, x, x0):
+        """(relaxed c2 [N × σ, table units], slack [N], next warm start) of the relaxed solution
+        ``x`` (None: no NLP was solved; the warm start stays ``x0``): the next warm start is
+        ``x`` shifted by one step, its last step repeated."""
+        if x is None:
+            return None, None, x0
+        N, sigma = self.horizon, self.table.num_parameters
+        nc = N * sigma
+        u = np.clip(x[:nc].reshape(N, sigma), 0.0, 1.0)
+        slack = x[nc + N :].copy()
+        relaxed = self.lower + u * self.span
+        warm = np.concatenate(
+            (
+                np.vstack((u[1:], u[-1:])).reshape(-1),
+                np.concatenate((x[nc + 1 : nc + N], x[nc + N - 1 : nc + N])),
+                np.concatenate((slack[1:], slack[-1:])),
+            )
+        )
+        return relaxed, slack, warm
+
+    def _MapTrajectory(self, f_half, relaxed, g_prev, soc: float):
+        """The horizon mapped onto admissible values with the exact table, step by step
+        (``_MapStep``): (c2 per step [N × σ], SoC at the N + 1 nodes, whether the first
+        step is feasible)."""
+        N, sigma = self.horizon, self.table.num_parameters
+        mapped = np.empty((N, sigma))
+        soc_nodes = np.empty(N + 1)
+        soc_nodes[0] = soc
+        feasible_first = True
+        for k in range(N):
+            c, feasible, soc_nodes[k + 1] = self._MapStep(
+                f_half[2 * k : 2 * k + 3],
+                None if relaxed is None else relaxed[k],
+                g_prev,
+                soc_nodes[k],
+            )
+            mapped[k] = c
+            if k == 0:
+                feasible_first = feasible
+        return mapped, soc_nodes, feasible_first
 
     def Plan(
         self,
@@ -460,7 +501,6 @@ class Planner:
         inputs = np.concatenate((q, c_prev, [soc, period, coverage_remaining, path_parameter]))
         if not np.all(np.isfinite(inputs)) or period <= 0.0:
             return self.Fallback(path_parameter, "invalid input (non-finite or period <= 0)")
-        N, sigma = self.horizon, self.table.num_parameters
         f_half = self.ResponseRows(float(period)) @ q
         x0 = self.LowestWarmStart() if warm_start is None else np.asarray(warm_start, float)
         if self.integer:  # the mapping enumerates the grid: the relaxed optimum is not read
@@ -472,37 +512,9 @@ class Planner:
                 out = self.Fallback(path_parameter, f"solver failed: {status}", computation=c2)
                 out.solve_time = solve_time
                 return out
-        if x is None:
-            relaxed = slack = None
-            warm = x0
-        else:
-            nc = N * sigma
-            u = np.clip(x[:nc].reshape(N, sigma), 0.0, 1.0)
-            slack = x[nc + N :].copy()
-            relaxed = self.lower + u * self.span
-            warm = np.concatenate(
-                (
-                    np.vstack((u[1:], u[-1:])).reshape(-1),
-                    np.concatenate((x[nc + 1 : nc + N], x[nc + N - 1 : nc + N])),
-                    np.concatenate((slack[1:], slack[-1:])),
-                )
-            )
-        # Mapping onto admissible values with the exact table, step by step.
+        relaxed, slack, warm = self._Unpack(x, x0)
         g_prev = self.table.power(c_prev)
-        mapped = np.empty((N, sigma))
-        soc_nodes = np.empty(N + 1)
-        soc_nodes[0] = soc
-        feasible_first = True
-        for k in range(N):
-            c, feasible, soc_nodes[k + 1] = self._MapStep(
-                f_half[2 * k : 2 * k + 3],
-                None if relaxed is None else relaxed[k],
-                g_prev,
-                soc_nodes[k],
-            )
-            mapped[k] = c
-            if k == 0:
-                feasible_first = feasible
+        mapped, soc_nodes, feasible_first = self._MapTrajectory(f_half, relaxed, g_prev, soc)
         dg = np.array([self.table.power(c) for c in mapped]) - g_prev
         t_b = self.TimeToReserve(f_half, dg, float(soc))
         c1 = ChoosePathParameter(

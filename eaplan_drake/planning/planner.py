@@ -12,7 +12,8 @@ Where the rest lives:
 - :mod:`eaplan_drake.planning.prediction`: the pure prediction helpers every policy uses (free
   response, the one Simpson SoC rollout on the battery model, time to reserve, the Eq. 10 line
   and path rule, the smooth table surrogate).
-- :mod:`eaplan_drake.planning.paper`: the paper's NLP (Eq. 16) and step (:class:`Planner`).
+- :mod:`eaplan_drake.planning.paper`: the paper's NLP (Eq. 16) and step
+  (:class:`~eaplan_drake.planning.paper.Planner`).
 - :mod:`eaplan_drake.planning.mpc`: the mission-feasible MPC (the default policy).
 
 The names of those modules that other code imported from here stay importable from here.
@@ -93,7 +94,7 @@ class PlannerDecision:
 
 
 class PlannerPolicy:
-    """A planner-scheduler policy: subclass and implement :meth:`Plan` (and
+    """A planner-scheduler policy: subclass and implement ``Plan(observation, memory)`` (and
     :meth:`InitialMemory` if the policy remembers anything between steps, e.g. a warm start).
 
     A policy must be a function of its arguments: any memory goes through ``memory`` (it lives in
@@ -104,7 +105,7 @@ class PlannerPolicy:
     acts = True
     """False for a policy that never changes the parameters (no update event is declared)."""
     observes_remaining_time = True
-    """False for a policy that never reads :attr:`PlannerObservation.remaining_time` (it is then
+    """False for a policy that never reads ``PlannerObservation.remaining_time`` (it is then
     None, and the sequencer's staircase t_rem(c1_j), one plan regeneration per grid value at each
     stage change, is never computed)."""
 

@@ -45,6 +45,7 @@ __all__ = [
     "CoverageTimeModel",
     "FreeResponse",
     "GridCandidates",
+    "MAX_GRID_POINTS",
     "PowerSurrogate",
     "SimpsonSoc",
     "SimpsonSocSensitivity",

@@ -116,15 +116,7 @@ def MapOnDask(
     pending: dict = {}
     token = uuid.uuid4().hex[:8]
     try:
-        if not _Threads(client, address):
-            say(f"waiting up to {wait:g} s for a Dask worker at {address} ...")
-            try:
-                client.wait_for_workers(1, timeout=wait)
-            except TimeoutError:
-                raise ClusterError(
-                    f"no Dask worker connected to {address} within {wait:g} s "
-                    f"(start one with: dask worker {address})"
-                ) from None
+        _WaitForWorker(client, address, wait, say)
         finished = as_completed(loop=client.loop)
         queue = list(range(len(arguments)))[::-1]  # popped from the end: in flight order
         threads = _Threads(client, address)
@@ -143,18 +135,7 @@ def MapOnDask(
                 pending[future] = i
                 finished.add(future)
             done = finished.next_batch(block=False)
-            for future in done:
-                i = pending.pop(future)
-                if future.status == "finished":
-                    on_result(i, future.result())
-                elif future.status == "error":
-                    on_failure(i, _Why(future.exception()))
-                else:  # cancelled or lost: the cluster's doing, not the flight's
-                    raise ClusterError(
-                        f"the Dask scheduler at {address} dropped a flight ({future.status}); "
-                        "run the study again to fly what is left"
-                    )
-                future.release()
+            _Deliver(done, pending, on_result, on_failure, address)
             if not done and time.monotonic() < check:
                 time.sleep(0.02)
                 continue
@@ -168,16 +149,52 @@ def MapOnDask(
             elif time.monotonic() - idle_since > wait:
                 raise ClusterError(f"no Dask worker connected to {address} for {wait:g} s")
     finally:
-        if pending:
-            try:
-                client.cancel(list(pending))
-            except Exception:  # the scheduler may be gone: nothing left to cancel
-                pass
-        if own:
-            try:
-                client.close(timeout=min(wait, 10.0))
-            except Exception:  # likewise: a client whose scheduler is gone
-                pass
+        _Release(client, pending, own, wait)
+
+
+def _WaitForWorker(client, address: str, wait: float, say) -> None:
+    """Returns once a worker is connected; ClusterError after ``wait`` [s] without one."""
+    if not _Threads(client, address):
+        say(f"waiting up to {wait:g} s for a Dask worker at {address} ...")
+        try:
+            client.wait_for_workers(1, timeout=wait)
+        except TimeoutError:
+            raise ClusterError(
+                f"no Dask worker connected to {address} within {wait:g} s "
+                f"(start one with: dask worker {address})"
+            ) from None
+
+
+def _Deliver(done, pending: dict, on_result, on_failure, address: str) -> None:
+    """Calls ``on_result`` or ``on_failure`` for each future of ``done`` (taken out of
+    ``pending``: future → task index) and releases it; ClusterError for a future the scheduler
+    dropped."""
+    for future in done:
+        i = pending.pop(future)
+        if future.status == "finished":
+            on_result(i, future.result())
+        elif future.status == "error":
+            on_failure(i, _Why(future.exception()))
+        else:  # cancelled or lost: the cluster's doing, not the flight's
+            raise ClusterError(
+                f"the Dask scheduler at {address} dropped a flight ({future.status}); "
+                "run the study again to fly what is left"
+            )
+        future.release()
+
+
+def _Release(client, pending: dict, own: bool, wait: float) -> None:
+    """Cancels the tasks still ``pending`` and closes the client if we made it (``own``)."""
+    if pending:
+        try:
+            client.cancel(list(pending))
+        except Exception:  # the scheduler may be gone: nothing left to cancel
+            pass
+    if own:
+        try:
+            client.close(timeout=min(wait, 10.0))
+        except Exception:  # likewise: a client whose scheduler is gone
+            pass
 
 
 def _Threads(client, address: str) -> int:

@@ -68,6 +68,7 @@ __all__ = [
     "FaultDistribution",
     "FlyRow",
     "LoadStudy",
+    "MAX_JOBS",
     "RunStudy",
     "Study",
     "StudyFlights",
@@ -250,7 +251,7 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
 def DrawFaults(rng: np.random.Generator, model: FaultModelParams, horizon: float) -> list:
     """Battery faults drawn from ``model`` over [0, ``horizon``] [s]: a Poisson number of drops
     at uniform times (the arrivals of a Poisson process of rate λ), sizes from the model's
-    distribution, at most :data:`~eaplan_drake.params.MAX_FAULTS` (the earliest)."""
+    distribution, at most :data:`~eaplan_drake.params.bounds.MAX_FAULTS` (the earliest)."""
     n = min(int(rng.poisson(model.rate * horizon)), MAX_FAULTS)
     times = np.sort(rng.uniform(0.0, horizon, size=n))
     if model.sizes == "uniform":
@@ -433,6 +434,61 @@ def CheckJobs(n_jobs, name: str = "n_jobs") -> int:
     return n_jobs
 
 
+def _CheckBackend(backend: str, n_jobs, wait_for_workers) -> tuple[int | None, float | None]:
+    """(n_jobs, wait [s]) of :func:`RunStudy`'s arguments: n_jobs checked for ``loky`` (default
+    1), the wait for ``dask`` (where n_jobs must not be given)."""
+    if backend not in ("loky", "dask"):
+        raise ScenarioError(f"backend: must be loky or dask, got {backend!r}")
+    if backend == "dask":
+        if n_jobs is not None:
+            raise ValueError(
+                "n_jobs: not used with backend dask (the cluster's workers and their threads "
+                "set how many flights fly at once)"
+            )
+        return None, Wait(wait_for_workers)
+    return CheckJobs(1 if n_jobs is None else n_jobs), None
+
+
+def _ProgressBar(total: int, initial: int):
+    """A tqdm progress bar over ``total`` flights, ``initial`` of them flown (None without
+    tqdm)."""
+    try:
+        from tqdm import tqdm
+
+        return tqdm(total=total, initial=initial, unit="flight")
+    except ImportError:
+        return None
+
+
+def _FlyOnDask(scheduler, todo: list, logs: str, write, *, wait: float, say) -> None:
+    """Flies the ``todo`` (keys, scenario) pairs on the Dask cluster (:func:`MapOnDask`),
+    ``write`` called with each row (a flight the cluster could not fly: its error row)."""
+    MapOnDask(
+        scheduler,
+        FlyRow,
+        [(k, s, logs) for k, s in todo],
+        names=[f"w{k['world']}-{k['policy']}" for k, _ in todo],
+        on_result=lambda i, row: write(row),
+        on_failure=lambda i, why: write(_FailedRow(*todo[i], why)),
+        wait=wait,
+        say=say,
+    )
+
+
+def _FlyOnLoky(todo: list, logs: str, write, *, n_jobs: int) -> None:
+    """Flies the ``todo`` (keys, scenario) pairs in ``n_jobs`` loky worker processes,
+    ``write`` called with each row as it ends."""
+    import joblib
+
+    parent = os.getpid()
+    with joblib.parallel_config(backend="loky", n_jobs=n_jobs, inner_max_num_threads=1):
+        results = joblib.Parallel(return_as="generator_unordered")(
+            joblib.delayed(_FlyInWorker)(k, s, logs, parent) for k, s in todo
+        )
+        for row in results:
+            write(row)
+
+
 def RunStudy(
     study: Study,
     out: str | Path,
@@ -460,17 +516,7 @@ def RunStudy(
             at the start or later, for a worker to be connected;
             :class:`~eaplan_drake.studies.cluster.ClusterError` after it.
     """
-    if backend not in ("loky", "dask"):
-        raise ScenarioError(f"backend: must be loky or dask, got {backend!r}")
-    if backend == "dask":
-        if n_jobs is not None:
-            raise ValueError(
-                "n_jobs: not used with backend dask (the cluster's workers and their threads "
-                "set how many flights fly at once)"
-            )
-        wait = Wait(wait_for_workers)
-    else:
-        n_jobs = CheckJobs(1 if n_jobs is None else n_jobs)
+    n_jobs, wait = _CheckBackend(backend, n_jobs, wait_for_workers)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rows_path = out / ROWS_FILE
@@ -480,14 +526,7 @@ def RunStudy(
     done = {r["id"]: r for r in _ReadRows(rows_path)}
     todo = [(k, s) for (k, s), i in zip(flights, ids, strict=True) if i not in done]
     logs = str(out / "logs") if save_logs else ""
-    bar = None
-    if progress:
-        try:
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(flights), initial=len(flights) - len(todo), unit="flight")
-        except ImportError:
-            bar = None
+    bar = _ProgressBar(len(flights), len(flights) - len(todo)) if progress else None
 
     def say(text: str) -> None:
         if bar is not None:
@@ -508,26 +547,9 @@ def RunStudy(
 
         try:
             if todo and backend == "dask":
-                MapOnDask(
-                    scheduler,
-                    FlyRow,
-                    [(k, s, logs) for k, s in todo],
-                    names=[f"w{k['world']}-{k['policy']}" for k, _ in todo],
-                    on_result=lambda i, row: write(row),
-                    on_failure=lambda i, why: write(_FailedRow(*todo[i], why)),
-                    wait=wait,
-                    say=say,
-                )
+                _FlyOnDask(scheduler, todo, logs, write, wait=wait, say=say)
             elif todo:
-                import joblib
-
-                parent = os.getpid()
-                with joblib.parallel_config(backend="loky", n_jobs=n_jobs, inner_max_num_threads=1):
-                    results = joblib.Parallel(return_as="generator_unordered")(
-                        joblib.delayed(_FlyInWorker)(k, s, logs, parent) for k, s in todo
-                    )
-                    for row in results:
-                        write(row)
+                _FlyOnLoky(todo, logs, write, n_jobs=n_jobs)
         finally:
             if bar is not None:
                 bar.close()

@@ -11,7 +11,8 @@ import dataclasses as dc
 
 import numpy as np
 
-from eaplan_drake.flight.coverage import PlanSource, StageTime
+from eaplan_drake.flight.coverage import PlanSource
+from eaplan_drake.flight.stages import StageTime
 from eaplan_drake.params import BatteryFault, Scenario
 from eaplan_drake.planning.planner import PlannerObservation
 

@@ -11,15 +11,9 @@ from matplotlib.collections import LineCollection
 from matplotlib.patches import Rectangle
 
 from eaplan_drake.flightlog import FlightLog, SampleQuality
-from eaplan_drake.output.plots import (
-    COLORS,
-    QUALITY_COLORMAP,
-    InfeasibleCause,
-    ParameterSteps,
-    PlotFlight,
-    Runs,
-    TimeMarkStep,
-)
+from eaplan_drake.output.plot_math import Runs, TimeMarkStep
+from eaplan_drake.output.plot_style import COLORS, QUALITY_COLORMAP, InfeasibleCause
+from eaplan_drake.output.plots import PlotFlight
 from eaplan_drake.params import BatteryFault, Scenario
 
 T_END = 120.0
@@ -469,25 +463,3 @@ def test_battery_panel_draws_the_planners_predicted_and_required_end_soc(figure)
         np.testing.assert_array_equal(y[np.isfinite(y)], v[np.isfinite(v)])
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert set(names) <= set(labels)
-
-
-def test_time_mark_step_runs_and_parameter_steps():
-    assert [TimeMarkStep(d) for d in (0.0, 45.0, 120.0, 395.0, 600.0, 601.0, 5000.0)] == [
-        5.0,
-        5.0,
-        20.0,
-        60.0,
-        60.0,
-        120.0,
-        600.0,
-    ]
-    assert TimeMarkStep(3600.0 * 25) == 3600.0 * 3
-    assert Runs([0, 1, 1, 0, 1]) == [(1, 3), (4, 5)]
-    assert Runs([]) == [] and Runs([1, 1]) == [(0, 2)]
-    t = np.arange(0.0, 20.0, 1.0)
-    c1 = np.r_[np.zeros(5), np.full(2, -100.0), -101.0, -102.0, np.full(11, -400.0)]
-    # Steps of ≥ 50: at 5 s (−100) and 9 s (−400, merged away within 5 s of 5 s); drift of
-    # 1 m² per step is not a step.
-    assert ParameterSteps(t, c1, 50.0).tolist() == [5]
-    assert ParameterSteps(t, c1, 50.0, merge=3.0).tolist() == [5, 9]
-    assert ParameterSteps(t[:1], c1[:1], 50.0).size == 0

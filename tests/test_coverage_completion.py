@@ -23,16 +23,12 @@ import numpy as np
 import pytest
 
 from eaplan_drake import LoadNamedScenario
-from eaplan_drake.flight.coverage import (
-    APPROACH,
-    CoveragePolygon,
-    PathLeft,
-    TurningRadius2,
-    ZamboniCoverage,
-)
+from eaplan_drake.flight.coverage import ZamboniCoverage
+from eaplan_drake.flight.polygon import CoveragePolygon
 from eaplan_drake.flight.sequencer import StageSequencer
+from eaplan_drake.flight.stages import APPROACH, PathLeft, TurningRadius2
 from eaplan_drake.flight.tracking import FlyTracking
-from eaplan_drake.output.plots import UncoveredArea
+from eaplan_drake.output.plot_math import UncoveredArea
 from eaplan_drake.params import CoverageParams, GuidanceParams
 from eaplan_drake.resolve import ResolveScenario
 
@@ -40,7 +36,7 @@ SHIPPED = ["plan_I", "plan_II", "plan_i", "plan_ii", "survey"]
 STEP = 2.0
 """Distance [m] the driven aircraft moves along the active stage between two updates."""
 RESOLUTION = 1.0
-"""Grid cell [m] of the coverage check (:func:`~eaplan_drake.output.plots.UncoveredArea`)."""
+"""Grid cell [m] of the coverage check (:func:`~eaplan_drake.output.plot_math.UncoveredArea`)."""
 GRID_SLACK = 1.5 * RESOLUTION
 """How far inside a swath's edge [m] a cell may still be counted uncovered by the grid."""
 MAX_GAPS = 0.002

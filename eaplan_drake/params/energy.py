@@ -1,0 +1,216 @@
+"""The energy loop's parameters: computation load, energy model, battery (and its scripted
+faults), power sensor and estimator."""
+
+import dataclasses as dc
+
+from eaplan_drake.params.bounds import (
+    MAX_COMPUTATION_PARAMETERS,
+    MAX_FAULTS,
+    MAX_RATE,
+    MAX_VARIANCE,
+)
+from eaplan_drake.params.checks import (
+    _at_most,
+    _check,
+    _in_range,
+    _is_int,
+    _nonnegative,
+    _positive,
+    _vector,
+)
+from eaplan_drake.params.walk import _Params
+from eaplan_drake.registry import BATTERY_MODELS
+
+
+@dc.dataclass
+class ComputationParams(_Params):
+    """Computation power g(c2) from a measured powprofiler table (paper 003 Sec. III-B)."""
+
+    table: str = "pednet_jetson_nano"
+    """A packaged table name (``pednet_jetson_nano``, ``two_parameters``) or a CSV path."""
+    initial_parameters: list[float] = dc.field(default_factory=lambda: [10.0])
+    """c2(0), one entry per computation parameter (σ of them) [table units, e.g. fps]."""
+    integer: bool = True
+    """Parameters take only the table's grid values (fps); the planner maps relaxed values back."""
+
+    def Validate(self, key: str = "computation") -> None:
+        _check(bool(self.table), f"{key}.table", "must name a table")
+        _check(len(self.initial_parameters) >= 1, f"{key}.initial_parameters", "needs >= 1 entry")
+        _check(
+            len(self.initial_parameters) <= MAX_COMPUTATION_PARAMETERS,
+            f"{key}.initial_parameters",
+            f"at most {MAX_COMPUTATION_PARAMETERS} entries, got {len(self.initial_parameters)}",
+        )
+        _vector(self.initial_parameters, f"{key}.initial_parameters")
+
+
+@dc.dataclass
+class EnergyModelParams(_Params):
+    """Periodic energy model (paper 003 Eqs. 3–12), scaled form y = C q with q in W."""
+
+    order: int = 3
+    """r, Fourier order (state size m = 2r + 1), in [0, 20]."""
+    initial_period: float = 46.0
+    """T, first guess of the period [s] until one is measured in flight."""
+    initial_coefficients: list[float] = dc.field(default_factory=list)
+    """q(0) [W] (m entries) or empty: α0 = initial_mean_power, harmonics zero."""
+    initial_mean_power: float = 30.0
+    """α0(0) [W] used when initial_coefficients is empty."""
+
+    def Validate(self, key: str = "energy_model") -> None:
+        _check(
+            _is_int(self.order) and 0 <= self.order <= 20,
+            f"{key}.order",
+            f"must be an integer in [0, 20], got {self.order!r}",
+        )
+        _positive(self.initial_period, f"{key}.initial_period")
+        if self.initial_coefficients:
+            _vector(self.initial_coefficients, f"{key}.initial_coefficients", 2 * self.order + 1)
+        _nonnegative(self.initial_mean_power, f"{key}.initial_mean_power")
+
+
+@dc.dataclass
+class BatteryFault(_Params):
+    """A sudden loss of state of charge at a given time."""
+
+    time: float = 0.0
+    """When [s]."""
+    soc_drop: float = 0.0
+    """How much SoC is lost [-], in (0, 1] (0.06 is −6 %)."""
+
+
+@dc.dataclass
+class BatteryParams(_Params):
+    """Rint equivalent circuit (paper 003 Lemma III.3): ḃ = −k_b I(y) / Q_c."""
+
+    voltage: float = 14.8
+    """V, internal (open-circuit) voltage [V]."""
+    internal_resistance: float = 0.0012
+    """R_r [Ω]."""
+    capacity: float = 3.2
+    """Q_c, nominal capacity [Ah]."""
+    k_b: float = 0.00183
+    """Battery coefficient [-]; absorbs the Ah-to-seconds conversion of the reference numbers."""
+    initial_soc: float = 1.0
+    """b(0) [-], in (0, 1]."""
+    reserve_soc: float = 0.30
+    """Reserve: the flight fails if b reaches it before the survey ends [-], in [0, 1)."""
+    faults: list[BatteryFault] = dc.field(default_factory=list)
+    """Sudden SoC drops (plan i: −6 % at 93 s, −9 % at 270 s)."""
+    model: str = "rint"
+    """Battery model, one of :data:`~eaplan_drake.registry.BATTERY_MODELS` (``rint``: the Rint
+    circuit above); the battery system and the planner's prediction both use it."""
+
+    def Validate(self, key: str = "battery") -> None:
+        BATTERY_MODELS.Check(self.model, f"{key}.model")
+        _positive(self.voltage, f"{key}.voltage")
+        _positive(self.internal_resistance, f"{key}.internal_resistance")
+        _positive(self.capacity, f"{key}.capacity")
+        _positive(self.k_b, f"{key}.k_b")
+        _in_range(self.initial_soc, f"{key}.initial_soc", 1e-9, 1.0)
+        _in_range(self.reserve_soc, f"{key}.reserve_soc", 0.0, 1.0 - 1e-9)
+        _check(
+            len(self.faults) <= MAX_FAULTS,
+            f"{key}.faults",
+            f"at most {MAX_FAULTS} faults, got {len(self.faults)}",
+        )
+        for i, f in enumerate(self.faults):
+            _nonnegative(f.time, f"{key}.faults[{i}].time")
+            _in_range(f.soc_drop, f"{key}.faults[{i}].soc_drop", 1e-12, 1.0)
+
+
+@dc.dataclass
+class SensorParams(_Params):
+    """Power sensor Υ = P_motion + P_computation + noise, sampled periodically."""
+
+    rate: float = 100.0
+    """Sampling rate [Hz]."""
+    noise_std: float = 0.5
+    """Standard deviation of the additive Gaussian noise [W]."""
+    dropout_probability: float = 0.0
+    """Probability that a sample is lost (output NaN) [-], in [0, 1)."""
+    seed: int = 0
+    """Seed of the noise and dropout generator, an integer >= 0."""
+    averaging: bool = False
+    """False (default): each sample is the power at the sample time plus noise of σ =
+    ``noise_std``. True: each sample is the mean of the n = native_rate / rate readings of its
+    interval, the mean power over it plus noise of σ/√n, and the estimator's R becomes
+    ``estimator.measurement_noise`` / n (:mod:`eaplan_drake.energy.sensor`): a sensor reporting
+    below
+    its native rate, or a simulation on a coarser ``simulation.max_step``, then loses no
+    information. Needs rate <= 1 / max_step and estimator.rate <= rate."""
+    native_rate: float = 100.0
+    """f_r, rate of the readings whose noise is σ = ``noise_std`` [Hz] (the paper's 100 Hz);
+    used with ``averaging`` (an integer multiple of ``rate``)."""
+
+    def Validate(self, key: str = "sensor") -> None:
+        _positive(self.rate, f"{key}.rate")
+        _at_most(self.rate, f"{key}.rate", MAX_RATE, "Hz", "bounds the events per second")
+        _nonnegative(self.noise_std, f"{key}.noise_std")
+        _positive(self.native_rate, f"{key}.native_rate")
+        _at_most(self.native_rate, f"{key}.native_rate", MAX_RATE, "Hz", "bounds the readings")
+        _in_range(self.dropout_probability, f"{key}.dropout_probability", 0.0, 1.0 - 1e-9)
+        _check(
+            _is_int(self.seed) and self.seed >= 0,
+            f"{key}.seed",
+            f"must be an integer >= 0, got {self.seed!r}",
+        )
+
+
+@dc.dataclass
+class EstimatorParams(_Params):
+    """Discrete Kalman filter on q (paper 003 Alg. 2 l. 28–29), Joseph-form update."""
+
+    rate: float = 100.0
+    """Update rate [Hz] (the sensor's)."""
+    initial_covariance: float = 100.0
+    """P(0) = p0 · I [W²]."""
+    process_noise: float = 1e-6
+    """Q = q · I per step [W²]. 1e-6 at 100 Hz keeps \\|ŷ − y\\| < 0.3 W on a σ = 0.5 W sensor
+    (1e-4 lets ŷ wander by ≈ ±0.3 W) and still follows an unannounced 1 W step of the mean
+    to 1/e in ≈ 1.2 s."""
+    measurement_noise: float = 0.25
+    """R, variance of the power sensor [W²] (σ = 0.5 W → 0.25)."""
+    mean_process_noise: float = 0.0
+    """Extra random-walk variance per step on the mean power α0 [W²]: Q_00 = process_noise +
+    mean_process_noise (a slowly drifting level, e.g. battery sag or wind change)."""
+    aperiodic_time_constant: float = 0.0
+    """τ of the aperiodic (AR(1), first-order Gauss–Markov) load state d [s]; 0 = no such state
+    (the paper's model, the default), ``.inf`` = random walk. Opt-in: see
+    :mod:`eaplan_drake.energy.fourier`; the planner's prediction uses the same model."""
+    aperiodic_noise: float = 0.0
+    """q_d, intensity of the aperiodic load's driving noise [W²/s] (stationary variance
+    q_d τ / 2); used only when aperiodic_time_constant > 0."""
+
+    def Validate(self, key: str = "estimator") -> None:
+        _positive(self.rate, f"{key}.rate")
+        _at_most(self.rate, f"{key}.rate", MAX_RATE, "Hz", "bounds the events per second")
+        _positive(self.initial_covariance, f"{key}.initial_covariance")
+        _at_most(
+            self.initial_covariance, f"{key}.initial_covariance", MAX_VARIANCE, "W²", "numerics"
+        )
+        _nonnegative(self.process_noise, f"{key}.process_noise")
+        _at_most(self.process_noise, f"{key}.process_noise", MAX_VARIANCE, "W²", "numerics")
+        _positive(self.measurement_noise, f"{key}.measurement_noise")
+        _at_most(self.measurement_noise, f"{key}.measurement_noise", MAX_VARIANCE, "W²", "numerics")
+        tau = self.aperiodic_time_constant
+        _check(
+            isinstance(tau, (int, float)) and not isinstance(tau, bool) and tau >= 0.0,
+            f"{key}.aperiodic_time_constant",
+            f"must be >= 0 [s] (0: none, .inf: random walk), got {tau!r}",
+        )
+        _nonnegative(self.aperiodic_noise, f"{key}.aperiodic_noise")
+        _at_most(self.aperiodic_noise, f"{key}.aperiodic_noise", MAX_VARIANCE, "W²/s", "numerics")
+        _nonnegative(self.mean_process_noise, f"{key}.mean_process_noise")
+        _at_most(
+            self.mean_process_noise, f"{key}.mean_process_noise", MAX_VARIANCE, "W²/s", "numerics"
+        )
+
+    def ModelOrder(self, order: int):
+        """The ``order`` argument of :mod:`eaplan_drake.energy.fourier` for Fourier order r: r
+        itself (paper model) or ``AugmentedOrder(r, τ)`` when the aperiodic state is on."""
+        if self.aperiodic_time_constant > 0.0:
+            from eaplan_drake.energy.fourier import AugmentedOrder
+
+            return AugmentedOrder(int(order), float(self.aperiodic_time_constant))
+        return int(order)

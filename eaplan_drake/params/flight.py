@@ -1,0 +1,160 @@
+"""The aircraft's and the survey's parameters: vehicle, motion power, wind, coverage and
+guidance."""
+
+import dataclasses as dc
+
+import numpy as np
+
+from eaplan_drake.params.bounds import (
+    MAX_COORDINATE,
+    MAX_GUIDANCE_GAIN,
+    MAX_POLYGON_VERTICES,
+)
+from eaplan_drake.params.checks import (
+    _at_most,
+    _check,
+    _finite,
+    _in_range,
+    _nonnegative,
+    _positive,
+    _vector,
+)
+from eaplan_drake.params.walk import _Params
+
+
+@dc.dataclass
+class MotionPowerParams(_Params):
+    """Propulsion (motion) power of the fixed-wing aircraft, in W.
+
+    Load-factor model: P_m = level_power · (1 − induced_fraction + induced_fraction · n²), with
+    n = sqrt(1 + (v_a ψ̇ / g)²) the load factor of a coordinated turn at heading rate ψ̇ [rad/s].
+    Defaults calibrated on the authors' logs (plant.py docstring): 25 W on lines, ≈ 28.7 W at the
+    sharpest point of a reference turn in 5 m/s wind, survey mean ≈ 25.8 W (log: 26.2 W).
+    """
+
+    level_power: float = 25.0
+    """Straight-and-level motion power at the airspeed [W]."""
+    induced_fraction: float = 0.5
+    """Share of the level power that scales with n² (induced drag) [-], in [0, 1]."""
+
+    def Validate(self, key: str = "vehicle.motion_power") -> None:
+        _positive(self.level_power, f"{key}.level_power")
+        _in_range(self.induced_fraction, f"{key}.induced_fraction", 0.0, 1.0)
+
+
+@dc.dataclass
+class VehicleParams(_Params):
+    """Fixed-wing unicycle ṗ = v_a [cos ψ, sin ψ] + w, ψ̇ = u with \\|u\\| ≤ g tan(φ_max) / v_a."""
+
+    airspeed: float = 15.0
+    """v_a, constant airspeed [m/s]."""
+    max_bank_angle_deg: float = 45.0
+    """φ_max, bank-angle limit that bounds the heading rate [deg], in (0, 80]."""
+    initial_position: list[float] = dc.field(default_factory=lambda: [-100.0, 220.0])
+    """p(0) = (x, y) [m]."""
+    initial_heading_deg: float = 270.0
+    """ψ(0), from +x counter-clockwise [deg]."""
+    motion_power: MotionPowerParams = dc.field(default_factory=MotionPowerParams)
+
+    def Validate(self, key: str = "vehicle") -> None:
+        _positive(self.airspeed, f"{key}.airspeed")
+        _in_range(self.max_bank_angle_deg, f"{key}.max_bank_angle_deg", 1e-3, 80.0)
+        for i, v in enumerate(_vector(self.initial_position, f"{key}.initial_position", 2)):
+            _check(
+                abs(v) <= MAX_COORDINATE,
+                f"{key}.initial_position[{i}]",
+                f"must be in [-{MAX_COORDINATE:g}, {MAX_COORDINATE:g}] m (numerics), got {v:g}",
+            )
+        _finite(self.initial_heading_deg, f"{key}.initial_heading_deg")
+        self.motion_power.Validate(f"{key}.motion_power")
+
+
+@dc.dataclass
+class WindParams(_Params):
+    """Constant wind w = speed · [cos θ_w, sin θ_w]; θ_w is where the wind blows *towards*."""
+
+    speed: float = 5.0
+    """‖w‖ [m/s], must be below the airspeed."""
+    direction_deg: float = 0.0
+    """θ_w, from +x counter-clockwise [deg]; 0 blows towards +x, 90 towards +y."""
+
+    def Validate(self, key: str = "wind") -> None:
+        _nonnegative(self.speed, f"{key}.speed")
+        _finite(self.direction_deg, f"{key}.direction_deg")
+
+    def Vector(self) -> np.ndarray:
+        """w [m/s] (:func:`WindVector`)."""
+        return WindVector(self.speed, self.direction_deg)
+
+
+def WindVector(speed: float, direction_deg: float) -> np.ndarray:
+    """w = speed · [cos θ_w, sin θ_w] [m/s], θ_w [deg] the direction the wind blows towards."""
+    theta = np.deg2rad(direction_deg)
+    return speed * np.array([np.cos(theta), np.sin(theta)])
+
+
+@dc.dataclass
+class CoverageParams(_Params):
+    """Zamboni-like coverage of a convex polygon (paper 003 Sec. IV-A, Alg. 1)."""
+
+    polygon: list[list[float]] = dc.field(
+        default_factory=lambda: [[-120.0, 11.0], [-120.0, 146.0], [180.0, 146.0], [180.0, 11.0]]
+    )
+    """Vertices v of the convex survey area [m], any order."""
+    line_edge: int = 0
+    """Index i of the polygon edge (v_i, v_{i+1}) the survey lines are parallel to."""
+    swath_spacing: float = 10.0
+    """x_d, line spacing at c1 = 0 [m]."""
+    turning_radius: float = 70.0
+    """r, ideal turning radius [m]; r1 = r + x_d/2 and r2(c1) = sqrt(r² + c1)."""
+    min_turning_radius: float = 62.449979983983983
+    """r_min [m]; bounds the path parameter: c1 ∈ [r_min² − r², 0] (sqrt(3900) → [−1000, 0])."""
+    plan_file: str = ""
+    """Optional authors'-format ``.pln`` plan to fly instead of generating one ("" = generate;
+    "reference" = the packaged authors' plan)."""
+    trigger_radius: float = 2.0
+    """ε, a stage switches when the aircraft is within this distance of its triggering point (or
+    has passed it) [m], >= 0."""
+
+    def Validate(self, key: str = "coverage") -> None:
+        _check(len(self.polygon) >= 3, f"{key}.polygon", "needs at least 3 vertices")
+        _check(
+            len(self.polygon) <= MAX_POLYGON_VERTICES,
+            f"{key}.polygon",
+            f"at most {MAX_POLYGON_VERTICES} vertices, got {len(self.polygon)}",
+        )
+        for i, v in enumerate(self.polygon):
+            _vector(v, f"{key}.polygon[{i}]", 2)
+        _in_range(self.line_edge, f"{key}.line_edge", 0, len(self.polygon) - 1)
+        _positive(self.swath_spacing, f"{key}.swath_spacing")
+        _positive(self.turning_radius, f"{key}.turning_radius")
+        _positive(self.min_turning_radius, f"{key}.min_turning_radius")
+        _check(
+            self.min_turning_radius <= self.turning_radius,
+            f"{key}.min_turning_radius",
+            f"r_min = {self.min_turning_radius:g} must be <= turning_radius r = "
+            f"{self.turning_radius:g}",
+        )
+        _nonnegative(self.trigger_radius, f"{key}.trigger_radius")
+
+
+@dc.dataclass
+class GuidanceParams(_Params):
+    """Guiding vector field gains (paper 001 Eq. 8) for unit-gradient path functions.
+
+    Tuned at 15 m/s airspeed in 5 m/s wind (tests/test_guidance.py): from 100 m off a line or a
+    70 m circle the distance falls below 0.5 m within ≈ 25 s without overshoot; k_e = 0.1 starts
+    to overshoot (≈ 1.4 m), k_e = 0.02 takes ≈ 35 s. k_d barely matters in [0.5, 2] rad/s.
+    """
+
+    k_e: float = 0.05
+    """Convergence gain of the field on φ [1/m] (φ normalised so that ‖∇φ‖ = 1 on the path);
+    plan generators put it into each path descriptor, the guidance uses the descriptor's. Once the
+    course is aligned, φ decays at the rate ≈ k_e · ground speed."""
+    k_d: float = 1.0
+    """Course-alignment gain [rad/s]: the course error δ obeys δ̇ = −k_d sin δ."""
+
+    def Validate(self, key: str = "guidance") -> None:
+        _positive(self.k_e, f"{key}.k_e")
+        _at_most(self.k_e, f"{key}.k_e", MAX_GUIDANCE_GAIN, "1/m", "numerics")
+        _positive(self.k_d, f"{key}.k_d")

@@ -1,0 +1,48 @@
+"""A plan's stages (eaplan_drake.flight.stages): the ground speed in wind, the time and the length
+of a stage."""
+
+import dataclasses as dc
+import math
+
+import pytest
+
+from eaplan_drake.flight.paths import Circle
+from eaplan_drake.flight.stages import (
+    GroundSpeed,
+    PathLength,
+    Stage,
+    StageTime,
+)
+from eaplan_drake.params import GuidanceParams
+
+V_A = 15.0  # the reference airspeed [m/s]
+K_E = GuidanceParams().k_e
+
+
+def test_ground_speed_and_stage_time_in_wind():
+    w = (5.0, 0.0)
+    assert GroundSpeed((1.0, 0.0), V_A, w) == pytest.approx(20.0)
+    assert GroundSpeed((-1.0, 0.0), V_A, w) == pytest.approx(10.0)
+    assert GroundSpeed((0.0, 1.0), V_A, w) == pytest.approx(math.sqrt(200.0))
+    # A half circle (bottom, downwind) against an independent time integration of the arc.
+    c = Circle((0.0, 0.0), 75.0, s=-1.0, k_e=K_E)
+    st = Stage(0, c, (75.0, 0.0), 1, 0.0, (-75.0, 0.0), math.pi * 75.0)
+    theta, t, h = math.pi, 0.0, 1e-3  # ccw from 180° through 270° to 360°
+    while theta < 2 * math.pi:
+        course = (-math.sin(theta), math.cos(theta))
+        dtheta = GroundSpeed(course, V_A, w) / 75.0
+        step = min(h, (2 * math.pi - theta) / dtheta)
+        theta += dtheta * step
+        t += step
+    assert StageTime(st, V_A, w) == pytest.approx(t, rel=1e-5)
+    assert StageTime(st, V_A) == pytest.approx(math.pi * 75.0 / V_A)
+    with pytest.raises(ValueError, match="wind"):
+        StageTime(st, V_A, (15.0, 0.0))
+
+
+def test_path_length_helper():
+    c = Circle((0.0, 0.0), 10.0, s=-1.0, k_e=K_E)  # ccw
+    assert PathLength(c, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 5.0)
+    assert PathLength(c, (0.0, 10.0), (10.0, 0.0)) == pytest.approx(math.pi * 15.0)
+    cw = dc.replace(c, s=1.0)
+    assert PathLength(cw, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 15.0)
