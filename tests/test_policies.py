@@ -10,8 +10,8 @@ import pytest
 
 from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.params import BatteryFault, Scenario
-from eaplan_drake.planning.mpc import MissionProgram
 from eaplan_drake.planning.planner import PlannerDecision, PlannerPolicy
+from eaplan_drake.planning.relaxation import MissionProgram
 from eaplan_drake.simulation import FlyHindsight, HindsightGrid, Simulate
 from eaplan_drake.studies.worlds import DrawWorld, WithPolicy
 

@@ -7,7 +7,8 @@ non-finite current or voltage are dropped. Of several instances (``multi_id``, o
 the one with the most samples is read unless ``instance`` says which.
 
 Needs pyulog (``pip install 'eaplan-drake[ulog]'``). A file that is not a ULog, or a ULog without
-the topic (the message lists the topics it has), is one :class:`PowerLogError` line.
+the topic (the message lists the topics it has), is one
+:class:`~eaplan_drake.logfit.powerlog.PowerLogError` line.
 """
 
 from pathlib import Path

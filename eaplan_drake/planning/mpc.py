@@ -69,8 +69,8 @@ normalised to [0, 1] by their bounds. Ties are broken by the larger end SoC.
 
 **The discrete problem and its NLP.** c1 ranges over the M grid values, c2 over the table's
 grid (integer parameters). Brute force (:meth:`MissionProblem.BruteForce`) enumerates it exactly.
-The NLP (:class:`MissionProgram`, ``MathematicalProgram`` + IPOPT or SNOPT (``planner.solver``),
-bounded by iterations only) is
+The NLP (:class:`~eaplan_drake.planning.relaxation.MissionProgram`, ``MathematicalProgram`` +
+IPOPT or SNOPT (``planner.solver``), bounded by iterations only) is
 its continuous relaxation: variables c̃1 ∈ [0, 1] and c̃2 ∈ [0, 1]^σ, linear cost −J, and the
 constraints (1), (2) with t_rem(c̃1) replaced by the lower convex hull of the staircase (the
 tightest convex under-estimate: with it the relaxation's optimum sits at the ends of plateaus,
@@ -80,7 +80,10 @@ optimum is mapped back exactly: the c2 grid points that bracket it (and the lowe
 largest grid c1 feasible with the exact table and the exact staircase, and the best of those by
 J is the start of a local search that moves c2 one grid step at a time (each with its largest
 feasible c1) while the plan improves; the result is the decision. A failed solve keeps the previous
-c1 and takes the best c2 that the exact check admits at it.
+c1 and takes the best c2 that the exact check admits at it. The mapping reads c̃2 only through the
+grid points that bracket it, so when every bracket leads to one plan
+(:meth:`MissionProblem.DeterminedDecision`) that plan is the decision and no solve is run: the
+same decision at a fraction of the cost.
 """
 
 import copy
@@ -89,14 +92,11 @@ import itertools
 import math
 
 import numpy as np
-from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
-from pydrake.solvers import MathematicalProgram
 
 from eaplan_drake.energy.battery_model import AsBatteryModel
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
 from eaplan_drake.params import MAX_TIME_LIMIT, BatteryParams, PlannerParams
-from eaplan_drake.planning.nlp import MakeSolver
 from eaplan_drake.planning.prediction import (
     GridCandidates,
     PowerSurrogate,
@@ -104,16 +104,13 @@ from eaplan_drake.planning.prediction import (
     SimpsonSocSensitivity,
     StepLoads,
 )
+from eaplan_drake.planning.relaxation import _LowerHull, _Pchip, _PchipSlopes
 from eaplan_drake.planning.risk_margin import UNREACHABLE_MARGIN, FaultModelFromParams, RiskTable
 
 __all__ = [
     "MissionDecision",
     "MissionProblem",
-    "MissionProgram",
 ]
-
-_CONSTRAINT_SCALE = 100.0
-"""The NLP's constraints are in percent of SoC: IPOPT then sees gradients of order one."""
 
 
 @dc.dataclass
@@ -634,129 +631,6 @@ class MissionProblem:
         return float(value), float(slope), float(dg)
 
 
-def _LowerHull(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Indices of the vertices of the lower convex hull of the points (x, y), x ascending."""
-    hull: list[int] = []
-    for k in range(x.size):
-        while len(hull) >= 2:
-            i, j = hull[-2], hull[-1]
-            if (y[j] - y[i]) * (x[k] - x[i]) >= (y[k] - y[i]) * (x[j] - x[i]):
-                hull.pop()  # j lies on or above the chord i–k
-            else:
-                break
-        hull.append(k)
-    return np.array(hull, dtype=int)
-
-
-def _Pchip(x: np.ndarray, y: np.ndarray, d: np.ndarray, t) -> tuple[np.ndarray, np.ndarray]:
-    """(value, slope) of the cubic Hermite interpolant of (x, y) with node slopes ``d`` at ``t``
-    (an array or a scalar; constant beyond the ends, and exactly y at the nodes)."""
-    t = np.asarray(t, dtype=float)
-    if x.size == 1:
-        return np.full_like(t, y[0]), np.zeros_like(t)
-    tc = np.clip(t, x[0], x[-1])
-    i = np.clip(np.searchsorted(x, tc, side="right") - 1, 0, x.size - 2)
-    h = x[i + 1] - x[i]
-    s = (tc - x[i]) / h
-    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
-    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
-    value = h00 * y[i] + h10 * h * d[i] + h01 * y[i + 1] + h11 * h * d[i + 1]
-    dh00, dh10 = (6 * s**2 - 6 * s) / h, (3 * s**2 - 4 * s + 1) / h
-    dh01, dh11 = (-6 * s**2 + 6 * s) / h, (3 * s**2 - 2 * s) / h
-    slope = dh00 * y[i] + dh10 * h * d[i] + dh01 * y[i + 1] + dh11 * h * d[i + 1]
-    inside = (t >= x[0]) & (t <= x[-1])
-    return value, np.where(inside, slope, 0.0)
-
-
-def _PchipSlopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Node derivatives of the monotone cubic interpolant of (x, y) (Fritsch–Carlson)."""
-    if x.size < 2:
-        return np.zeros_like(y)
-    delta = np.diff(y) / np.diff(x)
-    d = np.zeros_like(y)
-    d[0], d[-1] = delta[0], delta[-1]
-    for k in range(1, x.size - 1):
-        a, b = delta[k - 1], delta[k]
-        if a * b > 0.0:  # weighted harmonic mean; 0 at a local extremum or a plateau
-            w1 = 2 * (x[k + 1] - x[k]) + (x[k] - x[k - 1])
-            w2 = (x[k + 1] - x[k]) + 2 * (x[k] - x[k - 1])
-            d[k] = (w1 + w2) / (w1 / a + w2 / b)
-    return d
-
-
 def _RowIndex(rows: np.ndarray, row) -> int:
     hits = np.flatnonzero(np.all(np.isclose(rows, np.asarray(row)), axis=1))
     return int(hits[0]) if hits.size else -1
-
-
-class MissionProgram:
-    """The continuous relaxation of :class:`MissionProblem` as a ``MathematicalProgram`` solved
-    with IPOPT or SNOPT (see the module docstring), built once and re-used every step.
-
-    Attributes:
-        prog: the MathematicalProgram.
-        path_variable: c̃1 (1,).
-        computation_variables: c̃2 (σ,).
-        variables: [c̃1, c̃2] (the layout of initial guesses).
-    """
-
-    def __init__(self, problem: MissionProblem):
-        self.problem = problem
-        self.scale = _CONSTRAINT_SCALE
-        p = problem.params
-        sigma = problem.table.num_parameters
-        prog = MathematicalProgram()
-        u1 = prog.NewContinuousVariables(1, "c1")
-        u2 = prog.NewContinuousVariables(sigma, "c2")
-        prog.AddBoundingBoxConstraint(0.0, 1.0, u1)
-        prog.AddBoundingBoxConstraint(0.0, 1.0, u2)
-        prog.AddLinearCost(
-            np.concatenate(([-problem._w1], np.full(sigma, -problem._w2 / sigma))),
-            0.0,
-            np.concatenate((u1, u2)),
-        )
-        prog.AddConstraint(
-            self._Constraints,
-            np.zeros(2),
-            np.full(2, np.inf),
-            np.concatenate((u1, u2)),
-            description="mission_feasibility",
-        )
-        self.prog = prog
-        self.path_variable = u1
-        self.computation_variables = u2
-        self.variables = np.concatenate((u1, u2))
-        self.solver, self.options = MakeSolver(p, tolerance=1e-8)
-
-    def _Constraints(self, x):
-        """[(1), (2)] at x = [c̃1, c̃2] (≥ 0 when feasible), smooth model, analytic Jacobian."""
-        autodiff = x.dtype == object
-        xv = ExtractValue(x).reshape(-1) if autodiff else np.asarray(x, dtype=float)
-        pb = self.problem
-        sur = pb.surrogate
-        u1, u2 = float(xv[0]), xv[1:]
-        g = float(sur.value(u2.reshape(1, -1))[0])
-        t, dt_du1 = pb.RemainingTime(u1)
-        b_end, db_dt, db_dg = pb.SmoothSoc(g, t)
-        reserve = float(pb.battery.reserve_soc)
-        c1 = b_end - reserve - float(pb.Margin(t))
-        g_low = float(pb.candidate_power[pb.lowest_candidate])
-        t_low = float(pb.t_rem[0])
-        b_step, _, db_step_dg = pb.SmoothSoc(g, pb.step)
-        low_step = pb.SmoothSoc(g_low, pb.step)[0]
-        low_end = pb.SmoothSoc(g_low, t_low)[0]
-        c2 = b_step - low_step + low_end - reserve - float(pb.RecursiveMargin(t_low))
-        out = self.scale * np.array([c1, c2])
-        if not autodiff:
-            return out
-        grad_g = sur.gradient(u2.reshape(1, -1))[0]  # (σ,)
-        J = np.zeros((2, xv.size))
-        J[0, 0] = (db_dt - pb.MarginSlope(t)) * dt_du1
-        J[0, 1:] = db_dg * grad_g
-        J[1, 1:] = db_step_dg * grad_g
-        return InitializeAutoDiff(out, self.scale * J @ ExtractGradient(x))
-
-    def Solve(self, initial_guess):
-        """Solves from ``initial_guess`` (layout of ``variables``) with the chosen solver."""
-        guess = np.clip(np.asarray(initial_guess, dtype=float), 0.0, 1.0)
-        return self.solver.Solve(self.prog, guess, self.options)

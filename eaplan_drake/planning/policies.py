@@ -35,12 +35,14 @@ import numpy as np
 
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.planning.mpc import MissionProblem, MissionProgram
+from eaplan_drake.planning.mpc import MissionProblem
 from eaplan_drake.planning.paper import Planner
 from eaplan_drake.planning.planner import PlannerDecision, PlannerObservation, PlannerPolicy
+from eaplan_drake.planning.relaxation import MissionProgram
 from eaplan_drake.registry import POLICIES
 
 __all__ = [
+    "FALLBACK_DROP",
     "GreedyAuthorsPolicy",
     "GreedyPolicy",
     "MakeGreedyAuthorsPolicy",

@@ -32,7 +32,9 @@ above ε (8.8 % at ε = 0.05 on 57 feasible worlds). The mpc therefore anchors t
 budget opens (:class:`~eaplan_drake.planning.policies.MpcPolicy`): with (τ_a, m_a) the lowest plan
 as it stood then (τ_a counted down with the clock), the excess is measured from
 
-    P_base = min(P(F_0), P(S(τ_a) > m_a))         (``baseline_failure`` of :meth:`RequiredMargin`)
+    P_base = min(P(F_0), P(S(τ_a) > m_a))
+
+(``baseline_failure`` of :meth:`ExcessRiskTable.RequiredMargin`),
 
 so spending never lowers what later steps count as the world's own risk (and a better estimate of
 the world is used when it is better). The lowest plan keeps R = 0 (the fallback stays
