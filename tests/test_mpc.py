@@ -41,6 +41,18 @@ def _Problem(table, **planner):
     return MissionProblem(PlannerParams(**planner), table, ORDER, BATTERY, GRID)
 
 
+def _Policy(table, **planner):
+    """The mpc policy of ``PlannerParams(**planner)`` on the test's grid and battery."""
+    return MakePolicy(
+        PlannerParams(**planner),
+        table,
+        ORDER,
+        BATTERY,
+        coverage_time_bounds=(1, 2),
+        path_parameter_grid=GRID,
+    )
+
+
 def _Observation(q, variance, soc, t_rem, c2=10.0, c1=0.0):
     return PlannerObservation(
         time=100.0,
@@ -88,14 +100,7 @@ def test_soc_prediction_matches_the_rint_closed_form_for_a_constant_load(table):
 )
 def test_smooth_constraint_jacobian_matches_finite_differences(table, planner):
     rng = np.random.default_rng(3)
-    policy = MakePolicy(
-        PlannerParams(**planner),
-        table,
-        ORDER,
-        BATTERY,
-        coverage_time_bounds=(1, 2),
-        path_parameter_grid=GRID,
-    )
+    policy = _Policy(table, **planner)
     pb, program = policy.problem, policy.program
     q, var, soc, t_rem = _RandomState(rng)
     pb.SetState(q, var, soc, PERIOD, t_rem, [10.0])
@@ -202,14 +207,7 @@ def test_more_uncertainty_or_less_charge_never_raises_the_quality(table):
 def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan, solver):
     """Issue 8: the NLP (IPOPT or SNOPT + exact mapping) agrees with enumeration in >= 99 % of
     random feasible planner states (a seeded set; benchmarks/bench_planner.py measures more)."""
-    policy = MakePolicy(
-        PlannerParams(solver=solver),
-        table,
-        ORDER,
-        BATTERY,
-        coverage_time_bounds=(1, 2),
-        path_parameter_grid=GRID,
-    )
+    policy = _Policy(table, solver=solver)
     assert isinstance(policy, MpcPolicy)
     assert policy.program.solver.id().name().lower() == solver
     rng = np.random.default_rng(2024)
@@ -218,14 +216,7 @@ def test_nlp_first_move_equals_brute_force_on_random_feasible_states(table, plan
 
 
 def test_infeasible_mission_is_flagged_and_flies_the_lowest_plan(table):
-    policy = MakePolicy(
-        PlannerParams(),
-        table,
-        ORDER,
-        BATTERY,
-        coverage_time_bounds=(1, 2),
-        path_parameter_grid=GRID,
-    )
+    policy = _Policy(table)
     q = np.array([33.0, 2.0, 0.5, 1.0, 0.0, 0.2, 0.1])
     d = policy.Plan(_Observation(q, 1e-4, 0.35, np.full(GRID.size, 400.0)), policy.InitialMemory())
     assert not d.feasible and d.success
@@ -236,14 +227,7 @@ def test_infeasible_mission_is_flagged_and_flies_the_lowest_plan(table):
 
 
 def test_failed_solve_keeps_c1_and_takes_the_best_admissible_c2(table):
-    policy = MakePolicy(
-        PlannerParams(max_iterations=1),
-        table,
-        ORDER,
-        BATTERY,
-        coverage_time_bounds=(1, 2),
-        path_parameter_grid=GRID,
-    )
+    policy = _Policy(table, max_iterations=1)
     rng = np.random.default_rng(9)
     seen = 0
     for _ in range(400):  # most states are determined without a solve: draw until 5 failed
@@ -286,14 +270,7 @@ def test_the_prediction_is_bounded_by_the_longest_legal_flight(table):
 def test_a_decision_determined_without_a_solve_is_the_mapped_nlp_answer(table):
     """When every bracket of c̃2 maps to one plan, the policy skips the solve; that plan is what
     the solved relaxation maps to, on random states (and some states do need the solve)."""
-    policy = MakePolicy(
-        PlannerParams(),
-        table,
-        ORDER,
-        BATTERY,
-        coverage_time_bounds=(1, 2),
-        path_parameter_grid=GRID,
-    )
+    policy = _Policy(table)
     pb, program = policy.problem, policy.program
     rng = np.random.default_rng(11)
     determined = undetermined = 0

@@ -393,7 +393,7 @@ class MissionProblem:
     # -- answers -------------------------------------------------------------------------------
 
     def _Decision(self, j: int, k: int, c2, end: float, feasible: bool) -> MissionDecision:
-        u2 = float(np.mean((np.asarray(c2) - self.lower) / self.span))
+        u2 = self._Row(c2)[1]
         return MissionDecision(
             path_index=int(j),
             candidate_index=int(k),
