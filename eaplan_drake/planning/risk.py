@@ -73,6 +73,7 @@ little, and a plan that spends more loses those worlds: its excess risk is large
 import dataclasses as dc
 import functools
 import math
+import threading
 
 import numpy as np
 
@@ -186,27 +187,45 @@ def _IrwinHallCdf(count: np.ndarray, x: np.ndarray) -> np.ndarray:
     Cost O(n²) per level, O(n) per point.
     """
     out = np.zeros(x.shape)
-    coeffs = np.ones((0, 1))
-    for n in range(1, int(count.max(initial=0)) + 1):
-        padded = np.concatenate([np.zeros((1, n)), coeffs, np.ones((1, n))])
-        suffix = np.concatenate(
-            [np.cumsum(padded[:, ::-1], axis=1)[:, ::-1], np.zeros((n + 1, 1))], 1
-        )
-        prefix = np.concatenate([np.zeros((n + 1, 1)), np.cumsum(padded, axis=1)], axis=1)
-        coeffs = (suffix[:-1] + prefix[1:]) / n
+    for n in np.unique(count):
         rows = np.flatnonzero(count == n)
-        if rows.size == 0:
-            continue
+        coeffs, log_comb = _Bernstein(int(n))
         piece = np.minimum(np.floor(x[rows]), n - 1).astype(int)
         t = (x[rows] - piece)[:, None]
         i = np.arange(n + 1)
-        log_fact = _LogFactorials(n)
-        log_comb = log_fact[-1] - log_fact - log_fact[::-1]
         with np.errstate(divide="ignore", invalid="ignore"):
             log_basis = log_comb + i * np.log(t) + (n - i) * np.log1p(-t)
         basis = np.where(t == 0.0, i == 0, np.where(t == 1.0, i == n, np.exp(log_basis)))
         out[rows] = np.sum(coeffs[piece] * basis, axis=1)
     return out
+
+
+_BERNSTEIN_LOCK = threading.Lock()
+_BERNSTEIN = [(np.ones((0, 1)), np.zeros(1))]
+"""Level n of :func:`_IrwinHallCdf`'s recursion at index n: the Bernstein coefficients c(n), shape
+(n, n + 1), and log C(n, i) for i = 0..n; grown on demand and kept (they depend on n only)."""
+
+
+def _Bernstein(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Level n of the recursion in :func:`_IrwinHallCdf` (coefficients, log binomials)."""
+    with _BERNSTEIN_LOCK:  # a Dask worker's threads may grow it at once
+        _GrowBernstein(n)
+    return _BERNSTEIN[n]
+
+
+def _GrowBernstein(n: int) -> None:
+    while len(_BERNSTEIN) <= n:
+        level = len(_BERNSTEIN)
+        previous = _BERNSTEIN[-1][0]
+        padded = np.concatenate([np.zeros((1, level)), previous, np.ones((1, level))])
+        suffix = np.concatenate(
+            [np.cumsum(padded[:, ::-1], axis=1)[:, ::-1], np.zeros((level + 1, 1))], 1
+        )
+        prefix = np.concatenate([np.zeros((level + 1, 1)), np.cumsum(padded, axis=1)], axis=1)
+        log_fact = _LogFactorials(level)
+        _BERNSTEIN.append(
+            ((suffix[:-1] + prefix[1:]) / level, log_fact[-1] - log_fact - log_fact[::-1])
+        )
 
 
 @dc.dataclass(frozen=True)
