@@ -13,7 +13,9 @@ number of worlds, so a 300-world run gives the 60-world point too).
 Configurations named ``risk …`` form the risk planner's curve (linear between its points, sorted
 by rate). Then it names every other configuration that lies above that curve, i.e. no risk point
 or segment has both at least its quality and at most its rate; ``hindsight``, which knows the
-world in advance, is a yardstick and not checked.
+world in advance, is a yardstick and not checked. With a ``hindsight`` configuration, the last
+column is each configuration's mean quality over hindsight's, on the feasible worlds where
+hindsight's quality is above 0 (a lost mission counting 0), and how many such worlds there are.
 """
 
 import argparse
@@ -44,6 +46,20 @@ def CurveQuality(curve: list[tuple[float, float]], rate: float) -> float:
     return best
 
 
+def HindsightRatios(rows: list[dict], hindsight: list[dict]) -> list[float]:
+    """Per world: the policy's quality (0 if lost) over hindsight's, on the worlds the lowest plan
+    completes and hindsight surveys at a quality above 0."""
+    by = {(r["world"], r["policy"]): r for r in rows}
+    best = {r["world"]: r for r in hindsight if r["policy"] != "lowest"}
+    ratios = []
+    for (world, policy), row in sorted(by.items()):
+        low, hind = by.get((world, "lowest")), best.get(world)
+        if policy == "lowest" or not (low and low["completed"] and hind and hind["quality"] > 0):
+            continue
+        ratios.append((row["quality"] if row["completed"] else 0.0) / hind["quality"])
+    return ratios
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("configs", nargs="+", metavar="NAME=ROWS")
@@ -51,19 +67,24 @@ def main() -> None:
     parser.add_argument("--plot", default="", help="write the frontier figure (PNG) here")
     args = parser.parse_args()
     points = []
-    print(
-        "| planner | feasible worlds | excess failures | rate | 95 % upper | completed | quality |"
-    )
-    print("| --- | --- | --- | --- | --- | --- | --- |")
-    for text in args.configs:
-        name, _, path = text.partition("=")
-        (c,) = Certify(_Rows(path, args.worlds), eps=0.05)
+    configs = [text.partition("=")[::2] for text in args.configs]
+    rows = {name: _Rows(path, args.worlds) for name, path in configs}
+    hindsight = rows.get("hindsight")
+    head = "| planner | feasible | excess failures | rate | 95 % upper | completed | quality |"
+    print(head + (" quality / hindsight |" if hindsight else ""))
+    print("| --- " * (8 if hindsight else 7) + "|")
+    for name, _ in configs:
+        (c,) = Certify(rows[name], eps=0.05)
         rate = c.excess_failures / c.feasible
         points.append((name, rate, c.upper, c.mission_quality))
-        print(
+        line = (
             f"| {name} | {c.feasible} | {c.excess_failures} | {rate:.3f} | {c.upper:.3f} "
             f"| {100 * c.completion:.1f} % | {c.mission_quality:.3f} |"
         )
+        if hindsight:
+            ratios = HindsightRatios(rows[name], hindsight)
+            line += f" {np.mean(ratios):.3f} on {len(ratios)} |" if ratios else " – |"
+        print(line)
     curve = sorted((rate, q) for name, rate, _, q in points if name.startswith("risk"))
     if curve:
         above = [
