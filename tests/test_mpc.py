@@ -37,14 +37,20 @@ def _Staircase(rng, t_low=150.0, t_high=450.0, steps=5):
     return t_low + (t_high - t_low) * level / (steps - 1) + 3.0 * u
 
 
+def _Planner(**planner) -> PlannerParams:
+    """``PlannerParams(**planner)`` with the fixed reserve unless ``reserve`` is given: these tests
+    pin the fixed reserve's mechanics (tests/test_risk_margin.py tests the risk reserve)."""
+    return PlannerParams(**{"reserve": "fixed", **planner})
+
+
 def _Problem(table, **planner):
-    return MissionProblem(PlannerParams(**planner), table, ORDER, BATTERY, GRID)
+    return MissionProblem(_Planner(**planner), table, ORDER, BATTERY, GRID)
 
 
 def _Policy(table, **planner):
-    """The mpc policy of ``PlannerParams(**planner)`` on the test's grid and battery."""
+    """The mpc policy of ``_Planner(**planner)`` on the test's grid and battery."""
     return MakePolicy(
-        PlannerParams(**planner),
+        _Planner(**planner),
         table,
         ORDER,
         BATTERY,

@@ -79,14 +79,14 @@ def test_mpc_completes_seeded_worlds_that_the_lowest_plan_completes(seed):
 def test_mpc_completes_a_tight_world_it_lost_when_the_warmup_flew_full_quality():
     # World 77: wind 9.4 m/s, SoC drops of 0.12, 0.014 and 0.056 at 159–195 s; the static lowest
     # plan ends only 0.029 above the reserve. A 40 s warm-up at c1 = 0, c2 = 10 fps spent that
-    # margin before the planner could act (reserve reached); flying the lowest plan during the
-    # warm-up keeps the mission feasible.
+    # margin before the planner could act (reserve reached, with the fixed reserve); flying the
+    # lowest plan during the warm-up keeps the mission feasible.
     world = DrawWorld(Scenario(name="w"), 77)
     assert world.wind.speed > 9.0 and len(world.battery.faults) == 3
-    s = Simulate(WithPolicy(world, "mpc")).summary
+    s = Simulate(WithPolicy(world, "mpc", reserve="fixed")).summary
     assert s["status"] == "complete", s
     assert s["final_margin"] > 0.0
-    lost = Simulate(WithPolicy(world, "mpc", warmup_parameters="initial")).summary
+    lost = Simulate(WithPolicy(world, "mpc", reserve="fixed", warmup_parameters="initial")).summary
     assert lost["status"] == "reserve_reached", lost
 
 

@@ -156,10 +156,12 @@ class PlannerParams(_Params):
     margin_sigmas: float = 3.0
     """The mpc margin also grows by this many standard deviations of the predicted end SoC,
     from the estimator's variance of the mean power α0 [-]."""
-    reserve: str = "fixed"
-    """How the mpc policy holds SoC back for faults: ``fixed`` (``fault_reserve`` over
-    ``fault_reserve_time``) or ``risk`` (the margin each plan needs so that its excess risk under
-    ``fault_model`` is at most ``risk``; :mod:`eaplan_drake.planning.risk`)."""
+    reserve: str = "risk"
+    """How the mpc policy holds SoC back for faults: ``risk`` (the default: the margin each plan
+    needs so that its excess risk under ``fault_model`` is at most ``risk``;
+    :mod:`eaplan_drake.planning.risk`) or ``fixed`` (``fault_reserve`` over
+    ``fault_reserve_time``, which guarantees completion against drops that fit the reserve but
+    states no failure rate)."""
     after_drop: str = "replan"
     """With ``reserve: risk``, what the mpc does once it sees a SoC drop (its SoC more than 0.01
     below the one-step prediction): ``replan`` (keep deciding with the risk constraint) or
@@ -171,19 +173,20 @@ class PlannerParams(_Params):
     fault_model: FaultModelParams = dc.field(default_factory=FaultModelParams)
     """The planner's belief about faults (used with ``reserve: risk`` and by ``certify``)."""
     fault_reserve: float = 0.10
-    """SoC the mpc policy holds back for battery faults it cannot foresee, on top of the margin
-    [-], in [0, 1). 0.10 covers one fault of the reference plan i's size (−6 %, −9 %); measured on
-    40 random worlds (0–3 drops of 0–15 %, benchmarks/bench_policies.py --first-seed 1000), the
-    mpc completed 23 of the 33 missions the lowest plan completes with 0, and 31 with 0.10 and
-    with 0.15 (the two lost to two late drops); each 0.05 costs quality where nothing fails."""
+    """With ``reserve: fixed``, the SoC the mpc policy holds back for battery faults it cannot
+    foresee, on top of the margin [-], in [0, 1). 0.10 covers one fault of the reference plan i's
+    size (−6 %, −9 %); measured on 40 random worlds (0–3 drops of 0–15 %,
+    benchmarks/bench_policies.py --first-seed 1000), the mpc completed 23 of the 33 missions the
+    lowest plan completes with 0, and 31 with 0.10 and with 0.15 (the two lost to two late
+    drops); each 0.05 costs quality where nothing fails."""
     fault_reserve_time: float = 300.0
-    """τ_f [s]: the fault reserve held for a plan with t seconds of survey left is
-    ``fault_reserve`` · min(1, t/τ_f): faults come at a rate, so the exposure, and the reserve,
-    shrink as the survey nears its end (the reserve is then spent on quality). 0 holds the whole
-    reserve to the end. A margin that does not grow as time passes keeps the mpc recursively
-    feasible. Measured on worlds 0–22 of benchmarks/bench_policies.py (21 that the lowest plan
-    completes): 300 s completed the same 19 as 0 s, at a mission quality of 0.478 instead of
-    0.354."""
+    """With ``reserve: fixed``, τ_f [s]: the fault reserve held for a plan with t seconds of survey
+    left is ``fault_reserve`` · min(1, t/τ_f): faults come at a rate, so the exposure, and the
+    reserve, shrink as the survey nears its end (the reserve is then spent on quality). 0 holds
+    the whole reserve to the end. A margin that does not grow as time passes keeps the mpc
+    recursively feasible. Measured on worlds 0–22 of benchmarks/bench_policies.py (21 that the
+    lowest plan completes): 300 s completed the same 19 as 0 s, at a mission quality of 0.478
+    instead of 0.354."""
     solver: str = "ipopt"
     """NLP solver of the paper and mpc programs: "ipopt" or "snopt" (both bundled with Drake)."""
     max_iterations: int = 100
