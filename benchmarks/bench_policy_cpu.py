@@ -6,8 +6,8 @@ process clock; the ratio of the two is per world, so a drift of the machine's lo
 cancels. Prints a table of per-world ratios and their median, and the decisions' summary (status,
 quality) so that a faster version can be checked for the same flights. Not a test.
 
-    python3 benchmarks/bench_policy_cpu.py [--worlds 6] [--config fixed=]
-        [--config risk=planner.reserve=risk]
+    python3 benchmarks/bench_policy_cpu.py [--worlds 6] [--config risk=]
+        [--config fixed=planner.reserve=fixed]
 
 A configuration is ``NAME=KEY=VALUE[,KEY=VALUE…]`` (empty: the scenario as it is).
 """
@@ -21,7 +21,7 @@ from eaplan_drake.simulation import Simulate
 from eaplan_drake.studies.certify import CertifyStudy
 from eaplan_drake.studies.sweep import StudyFlights
 
-DEFAULT_CONFIGS = ["fixed=", "risk=planner.reserve=risk"]
+DEFAULT_CONFIGS = ["risk=", "fixed=planner.reserve=fixed"]
 
 
 def _Cpu(scenario) -> tuple[float, dict]:
