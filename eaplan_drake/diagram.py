@@ -23,6 +23,7 @@ go through one ``Multiplexer`` named ``log_mux`` into one ``VectorLogSink`` name
 are functions of other logged signals."""
 
 import dataclasses as dc
+import math
 
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder, OutputPort
@@ -41,7 +42,16 @@ from eaplan_drake.energy.sensor import AveragedVariance, PowerSensor
 from eaplan_drake.flight.guidance import VectorFieldGuidance
 from eaplan_drake.flight.plant import FixedWingPlant, MakeFixedWingPlant, MaxHeadingRate
 from eaplan_drake.flight.sequencer import StageSequencer
-from eaplan_drake.params import EstimatorParams, Scenario
+from eaplan_drake.params import (
+    BatteryParams,
+    EstimatorParams,
+    GuidanceParams,
+    PlannerParams,
+    Scenario,
+    SensorParams,
+    SimulationParams,
+    VehicleParams,
+)
 from eaplan_drake.planning.planner import PlannerPolicy, PlannerScheduler
 from eaplan_drake.planning.policies import MakePolicy
 from eaplan_drake.resolve import Derive, ResolvedScenario, ResolveScenario
@@ -151,55 +161,63 @@ class EnergyLoop:
 
 def AddGuidedAircraft(
     builder: DiagramBuilder,
-    scenario: Scenario,
     plan,
     *,
+    vehicle: VehicleParams,
+    simulation: SimulationParams,
+    guidance: GuidanceParams,
+    wind: np.ndarray,
+    trigger_radius: float,
+    initial_period: float,
+    path_parameter_grid: np.ndarray,
     initial_path_parameter: float,
     path_parameter: float | None = None,
 ) -> GuidedAircraft:
-    """Adds and wires the flight side of ``scenario`` to ``builder``: ``wind``
-    (a constant w [m/s], :meth:`~eaplan_drake.params.WindParams.Vector`), ``plant``
-    (:class:`~eaplan_drake.flight.plant.FixedWingPlant`), ``sequencer``
-    (:class:`~eaplan_drake.flight.sequencer.StageSequencer` over ``plan``, a plan source),
-    ``guidance`` (:class:`~eaplan_drake.flight.guidance.VectorFieldGuidance`) and
-    ``kinematics_demux`` (a ``Demultiplexer`` handing (x, y) of the plant's kinematics to the
-    sequencer)::
+    """Adds and wires the flight side to ``builder``: ``wind`` (the constant ``wind`` w [m/s],
+    (east, north), :attr:`~eaplan_drake.resolve.ResolvedScenario.wind`), ``plant``
+    (:class:`~eaplan_drake.flight.plant.FixedWingPlant` of ``vehicle``, the kind
+    ``simulation.plant`` names, :func:`~eaplan_drake.flight.plant.MakeFixedWingPlant`),
+    ``sequencer`` (:class:`~eaplan_drake.flight.sequencer.StageSequencer` over ``plan``, a plan
+    source), ``guidance`` (:class:`~eaplan_drake.flight.guidance.VectorFieldGuidance` with the
+    ``guidance`` gains) and ``kinematics_demux`` (a ``Demultiplexer`` handing (x, y) of the
+    plant's kinematics to the sequencer)::
 
         wind ─► plant ─► kinematics_demux ─► sequencer ─► guidance ─► plant
                   └───────────────────────────────────────────┘ (kinematics)
 
+    The sequencer switches stages within ``trigger_radius`` ε [m] of a triggering point, starts
+    from the period guess ``initial_period`` T [s], runs on the base step
+    ``simulation.max_step`` [s] and predicts its ``remaining_time`` on ``path_parameter_grid``
+    (the M values of c1 [m²], :attr:`~eaplan_drake.resolve.ResolvedScenario.path_parameter_grid`).
     ``initial_path_parameter`` is the c1 [m²] the sequencer starts with. The sequencer's
     ``path_parameters`` input is left for the caller (a planner), or fed the constant
     ``path_parameter`` [m²] when given (a flight at one coverage density).
     """
-    w = scenario.wind.Vector()
-    wind = builder.AddNamedSystem("wind", ConstantVectorSource(w))
-    plant = builder.AddNamedSystem(
-        "plant", MakeFixedWingPlant(scenario.vehicle, scenario.simulation)
-    )
+    source = builder.AddNamedSystem("wind", ConstantVectorSource(wind))
+    plant = builder.AddNamedSystem("plant", MakeFixedWingPlant(vehicle, simulation))
     sequencer = builder.AddNamedSystem(
         "sequencer",
         StageSequencer(
             plan,
             initial_c1=initial_path_parameter,
-            trigger_radius=scenario.coverage.trigger_radius,
-            initial_period=scenario.energy_model.initial_period,
-            wind=w,
-            time_step=scenario.simulation.max_step,
-            path_parameter_grid=scenario.planner.PathParameterGrid(),
+            trigger_radius=trigger_radius,
+            initial_period=initial_period,
+            wind=wind,
+            time_step=simulation.max_step,
+            path_parameter_grid=path_parameter_grid,
         ),
     )
     guidance = builder.AddNamedSystem(
         "guidance",
         VectorFieldGuidance(
-            airspeed=scenario.vehicle.airspeed,
-            guidance=scenario.guidance,
-            max_heading_rate=MaxHeadingRate(scenario.vehicle),
-            wind_speed=scenario.wind.speed,
+            airspeed=vehicle.airspeed,
+            guidance=guidance,
+            max_heading_rate=MaxHeadingRate(vehicle),
+            wind_speed=math.hypot(*wind),
         ),
     )
     connect = builder.Connect
-    connect(wind.get_output_port(), plant.GetInputPort("wind"))
+    connect(source.get_output_port(), plant.GetInputPort("wind"))
     # The sequencer reads (x, y) as the first two elements of the plant's kinematics (x, y, ψ,
     # ṗ_x, ṗ_y), split in C++ by a Demultiplexer: the same values as the plant's ``position``
     # output, without its Python calculation at every sequencer update.
@@ -214,33 +232,44 @@ def AddGuidedAircraft(
     if path_parameter is not None:
         c1 = builder.AddNamedSystem("path_parameters", ConstantVectorSource([path_parameter]))
         connect(c1.get_output_port(), sequencer.GetInputPort("path_parameters"))
-    return GuidedAircraft(wind=wind, plant=plant, sequencer=sequencer, guidance=guidance)
+    return GuidedAircraft(wind=source, plant=plant, sequencer=sequencer, guidance=guidance)
 
 
 def AddEnergyLoop(
     builder: DiagramBuilder,
-    scenario: Scenario,
     table,
     *,
     motion_power: OutputPort,
     period: OutputPort,
+    sensor: SensorParams,
+    sensor_seed: int,
+    estimator: EstimatorParams,
+    battery: BatteryParams,
+    order: int,
+    initial_period: float,
+    initial_coefficients: np.ndarray,
+    time_step: float,
     computation_parameters: list[float] | None = None,
 ) -> EnergyLoop:
-    """Adds and wires the energy side of ``scenario`` to ``builder``: ``computation``
+    """Adds and wires the energy side to ``builder``: ``computation``
     (:class:`~eaplan_drake.energy.computation.ComputationLoad` over ``table``), ``total_power`` (an
     ``Adder``: y = motion power + computation power [W]), ``sensor``
-    (:class:`~eaplan_drake.energy.sensor.PowerSensor`, seeded by ``scenario.SensorSeed()``),
-    ``estimator`` (:class:`~eaplan_drake.energy.estimator.EnergyEstimator`) and ``battery``
-    (:class:`~eaplan_drake.energy.battery.Battery`)::
+    (:class:`~eaplan_drake.energy.sensor.PowerSensor` of ``sensor``, seeded by ``sensor_seed``,
+    :attr:`~eaplan_drake.resolve.ResolvedScenario.sensor_seed`), ``estimator``
+    (:class:`~eaplan_drake.energy.estimator.EnergyEstimator` with the ``estimator`` parameters)
+    and ``battery`` (:class:`~eaplan_drake.energy.battery.Battery` of ``battery``)::
 
         motion_power ─► total_power ◄─ computation      period ─► estimator
                           │ y (Adder)
                           ├─► sensor ─ measured_power ─► estimator ◄─ computation power
                           └─► battery
 
-    The sensor runs on the base step ``simulation.max_step``; behind an averaging sensor
-    (``sensor.averaging``) the estimator's R is ``measurement_noise`` / n
-    (:func:`EstimatorOfSensor`).
+    The sensor, the estimator and the battery run on the base step ``time_step`` h [s]
+    (``simulation.max_step``); behind an averaging sensor (``sensor.averaging``) the estimator's
+    R is ``measurement_noise`` / n (:func:`EstimatorOfSensor`). The estimator's Fourier model
+    has order ``order`` r (m = 2r + 1 coefficients) and starts from the period guess
+    ``initial_period`` T [s] and the coefficients ``initial_coefficients`` q(0) [W]
+    (:attr:`~eaplan_drake.resolve.ResolvedScenario.initial_coefficients`).
 
     ``motion_power`` [W] and ``period`` (T [s]) are output ports already in ``builder`` (the
     plant's and the sequencer's, :func:`AddGuidedAircraft`). The computation load's
@@ -249,34 +278,31 @@ def AddEnergyLoop(
     """
     computation = builder.AddNamedSystem("computation", ComputationLoad(table))
     total = builder.AddNamedSystem("total_power", Adder(2, 1))  # y = P_motion + g [W]
-    sensor = builder.AddNamedSystem(
-        "sensor",
-        PowerSensor(
-            dc.replace(scenario.sensor, seed=scenario.SensorSeed()),
-            time_step=scenario.simulation.max_step,
-        ),
+    power_sensor = builder.AddNamedSystem(
+        "sensor", PowerSensor(dc.replace(sensor, seed=sensor_seed), time_step=time_step)
     )
-    estimator = builder.AddNamedSystem(
+    power_estimator = builder.AddNamedSystem(
         "estimator",
         EnergyEstimator(
-            order=scenario.energy_model.order,
-            initial_period=scenario.energy_model.initial_period,
-            estimator=EstimatorOfSensor(scenario.estimator, sensor.readings_per_sample),
-            initial_q=_InitialCoefficients(scenario),
-            time_step=scenario.simulation.max_step,
+            order=order,
+            initial_period=initial_period,
+            estimator=EstimatorOfSensor(estimator, power_sensor.readings_per_sample),
+            initial_q=initial_coefficients,
+            time_step=time_step,
         ),
     )
-    battery = builder.AddNamedSystem(
-        "battery", Battery(scenario.battery, time_step=scenario.simulation.max_step)
-    )
+    rint = builder.AddNamedSystem("battery", Battery(battery, time_step=time_step))
     connect = builder.Connect
     connect(motion_power, total.get_input_port(0))
     connect(computation.GetOutputPort("power"), total.get_input_port(1))
-    connect(total.get_output_port(), sensor.GetInputPort("power"))
-    connect(computation.GetOutputPort("power"), estimator.GetInputPort("computation_power"))
-    connect(sensor.GetOutputPort("measured_power"), estimator.GetInputPort("measured_power"))
-    connect(period, estimator.GetInputPort("period"))
-    connect(total.get_output_port(), battery.GetInputPort("power"))
+    connect(total.get_output_port(), power_sensor.GetInputPort("power"))
+    connect(computation.GetOutputPort("power"), power_estimator.GetInputPort("computation_power"))
+    connect(
+        power_sensor.GetOutputPort("measured_power"),
+        power_estimator.GetInputPort("measured_power"),
+    )
+    connect(period, power_estimator.GetInputPort("period"))
+    connect(total.get_output_port(), rint.GetInputPort("power"))
     if computation_parameters is not None:
         c2 = builder.AddNamedSystem(
             "computation_parameters", ConstantVectorSource(list(computation_parameters))
@@ -284,36 +310,40 @@ def AddEnergyLoop(
         connect(c2.get_output_port(), computation.GetInputPort("computation_parameters"))
     return EnergyLoop(
         computation=computation,
-        sensor=sensor,
-        estimator=estimator,
-        battery=battery,
+        sensor=power_sensor,
+        estimator=power_estimator,
+        battery=rint,
         total_power=total,
     )
 
 
 def AddPlannerScheduler(
     builder: DiagramBuilder,
-    scenario: Scenario,
     table,
     aircraft: GuidedAircraft,
     energy: EnergyLoop,
     *,
+    planner: PlannerParams,
     policy: PlannerPolicy,
+    model_order,
     initial_parameters: tuple[float, list[float]],
 ) -> PlannerScheduler:
-    """Adds the ``planner`` (:class:`~eaplan_drake.planning.planner.PlannerScheduler` running
-    ``policy``) and closes the loop: it reads the estimator's coefficients and their variance,
-    the battery's SoC and the sequencer's remaining time, period and coverage, and drives the
-    sequencer's c1 and the computation load's c2. ``initial_parameters`` = (c1 [m²], c2) flown
-    until the first planner step (:func:`~eaplan_drake.resolve.StartParameters`)."""
+    """Adds the ``planner`` (:class:`~eaplan_drake.planning.planner.PlannerScheduler` of the
+    ``planner`` parameters running ``policy`` over ``table``) and closes the loop: it reads the
+    estimator's coefficients and their variance, the battery's SoC and the sequencer's remaining
+    time, period and coverage, and drives the sequencer's c1 and the computation load's c2.
+    ``model_order`` is the estimator's model order
+    (:attr:`~eaplan_drake.resolve.ResolvedScenario.model_order`: r, or an ``AugmentedOrder``
+    with the aperiodic state). ``initial_parameters`` = (c1 [m²], c2) flown until the first
+    planner step (:func:`~eaplan_drake.resolve.StartParameters`)."""
     c1_0, c2_0 = initial_parameters
-    planner = builder.AddNamedSystem(
+    scheduler = builder.AddNamedSystem(
         "planner",
         PlannerScheduler(
-            scenario.planner,
+            planner,
             policy=policy,
             table=table,
-            order=scenario.estimator.ModelOrder(scenario.energy_model.order),
+            order=model_order,
             initial_path_parameter=c1_0,
             initial_computation_parameters=c2_0,
         ),
@@ -321,23 +351,25 @@ def AddPlannerScheduler(
     sequencer, estimator = aircraft.sequencer, energy.estimator
     connect = builder.Connect
     connect(
-        planner.GetOutputPort("computation_parameters"),
+        scheduler.GetOutputPort("computation_parameters"),
         energy.computation.GetInputPort("computation_parameters"),
     )
     connect(
-        estimator.GetOutputPort("energy_coefficients"), planner.GetInputPort("energy_coefficients")
+        estimator.GetOutputPort("energy_coefficients"),
+        scheduler.GetInputPort("energy_coefficients"),
     )
     connect(
-        estimator.GetOutputPort("mean_power_variance"), planner.GetInputPort("mean_power_variance")
+        estimator.GetOutputPort("mean_power_variance"),
+        scheduler.GetInputPort("mean_power_variance"),
     )
-    connect(energy.battery.GetOutputPort("soc"), planner.GetInputPort("soc"))
-    connect(sequencer.GetOutputPort("remaining_time"), planner.GetInputPort("remaining_time"))
-    connect(sequencer.GetOutputPort("period"), planner.GetInputPort("period"))
+    connect(energy.battery.GetOutputPort("soc"), scheduler.GetInputPort("soc"))
+    connect(sequencer.GetOutputPort("remaining_time"), scheduler.GetInputPort("remaining_time"))
+    connect(sequencer.GetOutputPort("period"), scheduler.GetInputPort("period"))
     connect(
-        sequencer.GetOutputPort("coverage_remaining"), planner.GetInputPort("coverage_remaining")
+        sequencer.GetOutputPort("coverage_remaining"), scheduler.GetInputPort("coverage_remaining")
     )
-    connect(planner.GetOutputPort("path_parameters"), sequencer.GetInputPort("path_parameters"))
-    return planner
+    connect(scheduler.GetOutputPort("path_parameters"), sequencer.GetInputPort("path_parameters"))
+    return scheduler
 
 
 def AddSignalLoggers(builder: DiagramBuilder, systems: dict, log_period: float) -> None:
@@ -435,21 +467,10 @@ def MakeEaplanDiagram(
     resolved = scenario if isinstance(scenario, ResolvedScenario) else ResolveScenario(scenario)
     if plan_source is not None:
         resolved = Derive(resolved.scenario, resolved.table, plan_source)
-    scenario, table, plan, start = resolved.scenario, resolved.table, resolved.plan, resolved.start
     if policy is None:
         policy = MakeResolvedPolicy(resolved)
     builder = DiagramBuilder()
-    aircraft = AddGuidedAircraft(builder, scenario, plan, initial_path_parameter=start[0])
-    energy = AddEnergyLoop(
-        builder,
-        scenario,
-        table,
-        motion_power=aircraft.plant.GetOutputPort("motion_power"),
-        period=aircraft.sequencer.GetOutputPort("period"),
-    )
-    planner = AddPlannerScheduler(
-        builder, scenario, table, aircraft, energy, policy=policy, initial_parameters=start
-    )
+    aircraft, energy, planner = _AddClosedLoop(builder, resolved, policy)
     systems = {
         s.get_name(): s
         for s in (
@@ -464,11 +485,57 @@ def MakeEaplanDiagram(
             planner,
         )
     }
-    period = scenario.simulation.log_period if log_period is None else log_period
-    AddSignalLoggers(builder, systems, period)
+    if log_period is None:
+        log_period = resolved.scenario.simulation.log_period
+    AddSignalLoggers(builder, systems, log_period)
     diagram = builder.Build()
     diagram.set_name("eaplan")
     return diagram
+
+
+def _AddClosedLoop(
+    builder: DiagramBuilder, resolved: ResolvedScenario, policy: PlannerPolicy
+) -> tuple[GuidedAircraft, EnergyLoop, PlannerScheduler]:
+    """The three builders of :func:`MakeEaplanDiagram`, each handed its subtrees of
+    ``resolved.scenario`` and the derived values of ``resolved``."""
+    s, table, start = resolved.scenario, resolved.table, resolved.start
+    aircraft = AddGuidedAircraft(
+        builder,
+        resolved.plan,
+        vehicle=s.vehicle,
+        simulation=s.simulation,
+        guidance=s.guidance,
+        wind=resolved.wind,
+        trigger_radius=s.coverage.trigger_radius,
+        initial_period=s.energy_model.initial_period,
+        path_parameter_grid=resolved.path_parameter_grid,
+        initial_path_parameter=start[0],
+    )
+    energy = AddEnergyLoop(
+        builder,
+        table,
+        motion_power=aircraft.plant.GetOutputPort("motion_power"),
+        period=aircraft.sequencer.GetOutputPort("period"),
+        sensor=s.sensor,
+        sensor_seed=resolved.sensor_seed,
+        estimator=s.estimator,
+        battery=s.battery,
+        order=s.energy_model.order,
+        initial_period=s.energy_model.initial_period,
+        initial_coefficients=resolved.initial_coefficients,
+        time_step=s.simulation.max_step,
+    )
+    planner = AddPlannerScheduler(
+        builder,
+        table,
+        aircraft,
+        energy,
+        planner=s.planner,
+        policy=policy,
+        model_order=resolved.model_order,
+        initial_parameters=start,
+    )
+    return aircraft, energy, planner
 
 
 def MakeScenarioPolicy(scenario: Scenario, table, plan) -> PlannerPolicy:
@@ -504,13 +571,3 @@ def EstimatorOfSensor(estimator: EstimatorParams, readings_per_sample: int) -> E
         estimator,
         measurement_noise=AveragedVariance(estimator.measurement_noise, readings_per_sample),
     )
-
-
-def _InitialCoefficients(scenario: Scenario) -> np.ndarray:
-    """q(0) [W]: the configured coefficients, or α0 = initial mean power and zero harmonics."""
-    m = 2 * scenario.energy_model.order + 1
-    if scenario.energy_model.initial_coefficients:
-        return np.asarray(scenario.energy_model.initial_coefficients, dtype=float)
-    q0 = np.zeros(m)
-    q0[0] = scenario.energy_model.initial_mean_power
-    return q0

@@ -77,6 +77,11 @@ class ResolvedScenario:
     """The constant wind w [m/s] (east, north)."""
     coverage_time_bounds: tuple[float, float] = (0.0, 0.0)
     """(t(c̲1), t(c̄1)) [s] of the plan in the wind: the Eq. 10 line of the paper's policies."""
+    initial_coefficients: np.ndarray = dc.field(default_factory=lambda: np.zeros(0))
+    """q(0) [W] of the estimator (m = 2r + 1 entries): ``energy_model.initial_coefficients``, or
+    α0 = ``energy_model.initial_mean_power`` and zero harmonics."""
+    sensor_seed: int = 0
+    """The power sensor's seed (:meth:`~eaplan_drake.params.Scenario.SensorSeed`)."""
 
 
 def TriggerDistance(path: PathFunction, point) -> float:
@@ -143,7 +148,18 @@ def Derive(scenario: Scenario, table: ComputationTable, plan: PlanSource) -> Res
         coverage_time_bounds=tuple(
             plan.CoverageTimeBounds(planner.path_parameter_bounds, scenario.vehicle.airspeed, wind)
         ),
+        initial_coefficients=_InitialCoefficients(scenario.energy_model),
+        sensor_seed=scenario.SensorSeed(),
     )
+
+
+def _InitialCoefficients(energy_model) -> np.ndarray:
+    """q(0) [W]: the configured coefficients, or α0 = initial mean power and zero harmonics."""
+    if energy_model.initial_coefficients:
+        return np.asarray(energy_model.initial_coefficients, dtype=float)
+    q0 = np.zeros(2 * energy_model.order + 1)
+    q0[0] = energy_model.initial_mean_power
+    return q0
 
 
 def _Table(scenario: Scenario) -> ComputationTable:

@@ -118,14 +118,31 @@ def test_the_builders_make_an_open_loop_flight_at_constant_parameters():
     s, table, plan = resolved.scenario, resolved.table, resolved.plan
     builder = DiagramBuilder()
     aircraft = AddGuidedAircraft(
-        builder, s, plan, initial_path_parameter=-1000.0, path_parameter=-1000.0
+        builder,
+        plan,
+        vehicle=s.vehicle,
+        simulation=s.simulation,
+        guidance=s.guidance,
+        wind=resolved.wind,
+        trigger_radius=s.coverage.trigger_radius,
+        initial_period=s.energy_model.initial_period,
+        path_parameter_grid=resolved.path_parameter_grid,
+        initial_path_parameter=-1000.0,
+        path_parameter=-1000.0,
     )
     energy = AddEnergyLoop(
         builder,
-        s,
         table,
         motion_power=aircraft.plant.GetOutputPort("motion_power"),
         period=aircraft.sequencer.GetOutputPort("period"),
+        sensor=s.sensor,
+        sensor_seed=resolved.sensor_seed,
+        estimator=s.estimator,
+        battery=s.battery,
+        order=s.energy_model.order,
+        initial_period=s.energy_model.initial_period,
+        initial_coefficients=resolved.initial_coefficients,
+        time_step=s.simulation.max_step,
         computation_parameters=[4.0],
     )
     true_power = energy.total_power.get_output_port()

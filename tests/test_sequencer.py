@@ -374,7 +374,17 @@ def _Fly(plan, c1, wind, t_max=1000.0):
     scenario.wind.direction_deg = float(np.degrees(np.arctan2(wind[1], wind[0])))
     builder = DiagramBuilder()
     aircraft = AddGuidedAircraft(
-        builder, scenario, plan, initial_path_parameter=c1, path_parameter=c1
+        builder,
+        plan,
+        vehicle=scenario.vehicle,
+        simulation=scenario.simulation,
+        guidance=scenario.guidance,
+        wind=scenario.wind.Vector(),
+        trigger_radius=scenario.coverage.trigger_radius,
+        initial_period=scenario.energy_model.initial_period,
+        path_parameter_grid=scenario.planner.PathParameterGrid(),
+        initial_path_parameter=c1,
+        path_parameter=c1,
     )
     seq, plant = aircraft.sequencer, aircraft.plant
     logs = {n: LogVectorOutput(seq.GetOutputPort(n), builder, 0.1) for n in ("period", "path")}

@@ -61,7 +61,17 @@ def MakeTrackingDiagram(scenario: Scenario, plan, c1: float, *, log_period: floa
         log_period = scenario.simulation.log_period
     builder = DiagramBuilder()
     aircraft = AddGuidedAircraft(
-        builder, scenario, plan, initial_path_parameter=c1, path_parameter=float(c1)
+        builder,
+        plan,
+        vehicle=scenario.vehicle,
+        simulation=scenario.simulation,
+        guidance=scenario.guidance,
+        wind=scenario.wind.Vector(),
+        trigger_radius=scenario.coverage.trigger_radius,
+        initial_period=scenario.energy_model.initial_period,
+        path_parameter_grid=scenario.planner.PathParameterGrid(),
+        initial_path_parameter=c1,
+        path_parameter=float(c1),
     )
     plant, seq = aircraft.plant, aircraft.sequencer
     systems = {"plant": plant, "sequencer": seq}
