@@ -38,6 +38,7 @@ from pydrake.systems.primitives import (
 from eaplan_drake.energy.battery import Battery
 from eaplan_drake.energy.computation import ComputationLoad
 from eaplan_drake.energy.estimator import EnergyEstimator
+from eaplan_drake.energy.fourier import AugmentedOrder
 from eaplan_drake.energy.sensor import AveragedVariance, PowerSensor
 from eaplan_drake.flight.guidance import VectorFieldGuidance
 from eaplan_drake.flight.plant import FixedWingPlant, MakeFixedWingPlant, MaxHeadingRate
@@ -65,8 +66,10 @@ __all__ = [
     "AddPlannerScheduler",
     "AddSignalLoggers",
     "EnergyLoop",
+    "EnergyLoopArguments",
     "EstimatorOfSensor",
     "GuidedAircraft",
+    "GuidedAircraftArguments",
     "LoggedSignals",
     "MakeEaplanDiagram",
     "MakeResolvedPolicy",
@@ -325,7 +328,7 @@ def AddPlannerScheduler(
     *,
     planner: PlannerParams,
     policy: PlannerPolicy,
-    model_order,
+    model_order: int | AugmentedOrder,
     initial_parameters: tuple[float, list[float]],
 ) -> PlannerScheduler:
     """Adds the ``planner`` (:class:`~eaplan_drake.planning.planner.PlannerScheduler` of the
@@ -493,27 +496,40 @@ def MakeEaplanDiagram(
     return diagram
 
 
-def _AddClosedLoop(
-    builder: DiagramBuilder, resolved: ResolvedScenario, policy: PlannerPolicy
-) -> tuple[GuidedAircraft, EnergyLoop, PlannerScheduler]:
-    """The three builders of :func:`MakeEaplanDiagram`, each handed its subtrees of
-    ``resolved.scenario`` and the derived values of ``resolved``."""
-    s, table, start = resolved.scenario, resolved.table, resolved.start
-    aircraft = AddGuidedAircraft(
-        builder,
-        resolved.plan,
+def GuidedAircraftArguments(scenario: Scenario | ResolvedScenario) -> dict:
+    """The keyword arguments of :func:`AddGuidedAircraft` that a scenario fixes: its
+    ``vehicle``, ``simulation`` and ``guidance`` subtrees, ``coverage.trigger_radius`` ε [m],
+    ``energy_model.initial_period`` T [s], the wind w [m/s] and the c1 grid [m²] (those of a
+    :class:`~eaplan_drake.resolve.ResolvedScenario`, or of a plain scenario computed as
+    :func:`~eaplan_drake.resolve.Derive` computes them). The caller adds the plan, the
+    ``initial_path_parameter`` and, for a flight at one c1, ``path_parameter``::
+
+        AddGuidedAircraft(builder, plan, **GuidedAircraftArguments(s), initial_path_parameter=0.0)
+    """
+    if isinstance(scenario, ResolvedScenario):
+        s, wind, grid = scenario.scenario, scenario.wind, scenario.path_parameter_grid
+    else:
+        s, wind, grid = scenario, scenario.wind.Vector(), scenario.planner.PathParameterGrid()
+    return dict(
         vehicle=s.vehicle,
         simulation=s.simulation,
         guidance=s.guidance,
-        wind=resolved.wind,
+        wind=wind,
         trigger_radius=s.coverage.trigger_radius,
         initial_period=s.energy_model.initial_period,
-        path_parameter_grid=resolved.path_parameter_grid,
-        initial_path_parameter=start[0],
+        path_parameter_grid=grid,
     )
-    energy = AddEnergyLoop(
-        builder,
-        table,
+
+
+def EnergyLoopArguments(resolved: ResolvedScenario, aircraft: GuidedAircraft) -> dict:
+    """The keyword arguments of :func:`AddEnergyLoop` that a resolved scenario and the flight
+    side ``aircraft`` (:func:`AddGuidedAircraft`) fix: the plant's ``motion_power`` and the
+    sequencer's ``period`` ports, the ``sensor``, ``estimator`` and ``battery`` subtrees, the
+    sensor seed, the model order r, T [s], q(0) [W] and the base step h [s]
+    (``simulation.max_step``). The caller adds the table and, for a flight at constant c2,
+    ``computation_parameters``."""
+    s = resolved.scenario
+    return dict(
         motion_power=aircraft.plant.GetOutputPort("motion_power"),
         period=aircraft.sequencer.GetOutputPort("period"),
         sensor=s.sensor,
@@ -525,12 +541,27 @@ def _AddClosedLoop(
         initial_coefficients=resolved.initial_coefficients,
         time_step=s.simulation.max_step,
     )
+
+
+def _AddClosedLoop(
+    builder: DiagramBuilder, resolved: ResolvedScenario, policy: PlannerPolicy
+) -> tuple[GuidedAircraft, EnergyLoop, PlannerScheduler]:
+    """The three builders of :func:`MakeEaplanDiagram`, each handed its subtrees of
+    ``resolved.scenario`` and the derived values of ``resolved``."""
+    table, start = resolved.table, resolved.start
+    aircraft = AddGuidedAircraft(
+        builder,
+        resolved.plan,
+        **GuidedAircraftArguments(resolved),
+        initial_path_parameter=start[0],
+    )
+    energy = AddEnergyLoop(builder, table, **EnergyLoopArguments(resolved, aircraft))
     planner = AddPlannerScheduler(
         builder,
         table,
         aircraft,
         energy,
-        planner=s.planner,
+        planner=resolved.scenario.planner,
         policy=policy,
         model_order=resolved.model_order,
         initial_parameters=start,

@@ -1,4 +1,6 @@
-"""Shared pytest configuration: the Agg backend, the ``authors_data`` marker, and a small study.
+"""Shared pytest configuration: the Agg backend, the ``authors_data`` marker, the shipped
+computation tables (``table``: PedNet on a Jetson Nano, one parameter; ``table2``: the
+two-parameter table) and a small study.
 
 A test marked ``authors_data`` reads the authors' logs and measurements (``$EAPLAN_REFERENCE_DIR``,
 default ``../shared/reference/seewald2022`` beside the repository). Without them it is skipped
@@ -11,11 +13,24 @@ import textwrap
 import matplotlib
 import pytest
 
+from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.logfit.powerlog import REFERENCE_ENV, ReferenceDirectory
 
 matplotlib.use("Agg")
 
 _AUTHORS_DATA = {"ran": 0, "skipped": 0}
+
+
+@pytest.fixture(scope="session")
+def table():
+    """The shipped PedNet table (one parameter, fps), immutable."""
+    return LoadComputationTable("pednet_jetson_nano")
+
+
+@pytest.fixture(scope="session")
+def table2():
+    """The shipped two-parameter table, immutable."""
+    return LoadComputationTable("two_parameters")
 
 
 def pytest_collection_modifyitems(config, items):

@@ -110,7 +110,12 @@ def test_the_builders_make_an_open_loop_flight_at_constant_parameters():
     the Rint closed form says for the true power drawn."""
     from pydrake.systems.framework import DiagramBuilder
 
-    from eaplan_drake.diagram import AddEnergyLoop, AddGuidedAircraft
+    from eaplan_drake.diagram import (
+        AddEnergyLoop,
+        AddGuidedAircraft,
+        EnergyLoopArguments,
+        GuidedAircraftArguments,
+    )
     from eaplan_drake.energy.battery import SocDerivative
     from eaplan_drake.resolve import ResolveScenario
 
@@ -120,29 +125,14 @@ def test_the_builders_make_an_open_loop_flight_at_constant_parameters():
     aircraft = AddGuidedAircraft(
         builder,
         plan,
-        vehicle=s.vehicle,
-        simulation=s.simulation,
-        guidance=s.guidance,
-        wind=resolved.wind,
-        trigger_radius=s.coverage.trigger_radius,
-        initial_period=s.energy_model.initial_period,
-        path_parameter_grid=resolved.path_parameter_grid,
+        **GuidedAircraftArguments(resolved),
         initial_path_parameter=-1000.0,
         path_parameter=-1000.0,
     )
     energy = AddEnergyLoop(
         builder,
         table,
-        motion_power=aircraft.plant.GetOutputPort("motion_power"),
-        period=aircraft.sequencer.GetOutputPort("period"),
-        sensor=s.sensor,
-        sensor_seed=resolved.sensor_seed,
-        estimator=s.estimator,
-        battery=s.battery,
-        order=s.energy_model.order,
-        initial_period=s.energy_model.initial_period,
-        initial_coefficients=resolved.initial_coefficients,
-        time_step=s.simulation.max_step,
+        **EnergyLoopArguments(resolved, aircraft),
         computation_parameters=[4.0],
     )
     true_power = energy.total_power.get_output_port()

@@ -10,7 +10,6 @@ import pytest
 from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 
 from eaplan_drake.energy.battery import SocAfter
-from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.params import BatteryParams, CoverageParams, PlannerParams, VehicleParams
 from eaplan_drake.planning.mpc import MissionProblem
@@ -22,11 +21,6 @@ ORDER = 3
 PERIOD = 46.0
 GRID = np.linspace(-1000.0, 0.0, 21)
 BATTERY = BatteryParams()
-
-
-@pytest.fixture(scope="module")
-def table():
-    return LoadComputationTable("pednet_jetson_nano")
 
 
 def _Staircase(rng, t_low=150.0, t_high=450.0, steps=5):

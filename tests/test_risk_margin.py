@@ -7,7 +7,6 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.params import (
     BatteryParams,
@@ -102,11 +101,6 @@ def test_fault_model_params_build_each_size_distribution():
     assert exp.sizes == ExponentialDrops(0.05)
     emp = FaultModelFromParams(FaultModelParams(sizes="empirical", size_values=[0.05, 0.1]))
     assert emp.sizes == EmpiricalDrops((0.05, 0.1))
-
-
-@pytest.fixture(scope="module")
-def table():
-    return LoadComputationTable("pednet_jetson_nano")
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from pydrake.systems.framework import BasicVector, DiagramBuilder, EventStatus, 
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from eaplan_drake.diagram import AddGuidedAircraft
+from eaplan_drake.diagram import AddGuidedAircraft, GuidedAircraftArguments
 from eaplan_drake.flight.coverage import StaticPlan, ZamboniCoverage
 from eaplan_drake.flight.paths import DESCRIPTOR_SIZE, PathFunction
 from eaplan_drake.flight.planfile import LoadPlanFile
@@ -376,13 +376,7 @@ def _Fly(plan, c1, wind, t_max=1000.0):
     aircraft = AddGuidedAircraft(
         builder,
         plan,
-        vehicle=scenario.vehicle,
-        simulation=scenario.simulation,
-        guidance=scenario.guidance,
-        wind=scenario.wind.Vector(),
-        trigger_radius=scenario.coverage.trigger_radius,
-        initial_period=scenario.energy_model.initial_period,
-        path_parameter_grid=scenario.planner.PathParameterGrid(),
+        **GuidedAircraftArguments(scenario),
         initial_path_parameter=c1,
         path_parameter=c1,
     )

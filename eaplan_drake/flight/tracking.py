@@ -51,7 +51,7 @@ def MakeTrackingDiagram(scenario: Scenario, plan, c1: float, *, log_period: floa
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import LogVectorOutput
 
-    from eaplan_drake.diagram import AddGuidedAircraft
+    from eaplan_drake.diagram import AddGuidedAircraft, GuidedAircraftArguments
 
     scenario.wind.Validate("wind")
     scenario.simulation.Validate("simulation")
@@ -63,13 +63,7 @@ def MakeTrackingDiagram(scenario: Scenario, plan, c1: float, *, log_period: floa
     aircraft = AddGuidedAircraft(
         builder,
         plan,
-        vehicle=scenario.vehicle,
-        simulation=scenario.simulation,
-        guidance=scenario.guidance,
-        wind=scenario.wind.Vector(),
-        trigger_radius=scenario.coverage.trigger_radius,
-        initial_period=scenario.energy_model.initial_period,
-        path_parameter_grid=scenario.planner.PathParameterGrid(),
+        **GuidedAircraftArguments(scenario),
         initial_path_parameter=c1,
         path_parameter=float(c1),
     )
