@@ -76,7 +76,8 @@ MAX_SCENARIO_BYTES = 1_000_000
 
 
 def ResolveFilePaths(scenario: Scenario, base_dir: str | Path) -> Scenario:
-    """``scenario`` with a relative ``computation.table`` / ``coverage.plan_file`` path made
+    """``scenario`` with a relative ``computation.table`` / ``coverage.plan_file`` /
+    ``coverage.field`` path made
     relative to ``base_dir`` (the scenario file's folder) instead of the current directory;
     packaged names (``pednet_jetson_nano``, ``reference``, …) stay. Modifies and returns it."""
     from eaplan_drake.energy.computation import PACKAGED_TABLES
@@ -90,6 +91,11 @@ def ResolveFilePaths(scenario: Scenario, base_dir: str | Path) -> Scenario:
     if isinstance(plan, str) and plan and plan not in ("reference", "reference_plan"):
         if not Path(plan).is_absolute():
             scenario.coverage.plan_file = str(base / plan)
+    field = scenario.coverage.field
+    packaged_fields = ("funen_field",)  # eaplan_drake.field.source.PACKAGED_FIELDS
+    if isinstance(field, str) and field and field not in packaged_fields:
+        if not Path(field).is_absolute():
+            scenario.coverage.field = str(base / field)
     return scenario
 
 

@@ -119,10 +119,12 @@ PLAN_SOURCES = Registry(
     {
         "zamboni": "eaplan_drake.flight.coverage:MakeZamboniPlanSource",
         "plan_file": "eaplan_drake.flight.planfile:MakePlanFileSource",
+        "field": "eaplan_drake.field.source:MakeFieldPlanSource",
     },
 )
 """The plan a flight follows: the generated Zamboni-like coverage (``zamboni``, when
-``coverage.plan_file`` is empty) or an authors' ``.pln`` file (``plan_file``)."""
+``coverage.plan_file`` and ``coverage.field`` are empty), an authors' ``.pln`` file
+(``plan_file``) or a field read from a GeoJSON, KML or QGroundControl file (``field``)."""
 
 BATTERY_MODELS = Registry(
     "battery.model",

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.energy.computation import ComputationTable, LoadComputationTable
-from eaplan_drake.errors import ScenarioError
+from eaplan_drake.errors import MissingExtraError, ScenarioError
 from eaplan_drake.flight.coverage import CheckCoverageGeometry, PlanSource
 from eaplan_drake.flight.paths import PathFunction
 from eaplan_drake.flight.planfile import PlanFile
@@ -196,19 +196,28 @@ def StartParameters(scenario: Scenario, table) -> tuple[float, list[float]]:
 
 def _Plan(scenario: Scenario, table: ComputationTable) -> PlanSource:
     c1_0, _ = StartParameters(scenario, table)
-    key = "coverage.plan_file" if scenario.coverage.plan_file else "coverage"
-    if not scenario.coverage.plan_file:
+    key = _PlanKey(scenario.coverage)
+    if PlanSourceName(scenario.coverage) == "zamboni":
         _CheckZamboniGeometry(scenario.coverage)
     try:
         return MakePlanSource(scenario, initial_c1=c1_0)
-    except (ValueError, OSError, RecursionError, RuntimeError) as e:
+    except (ValueError, OSError, RecursionError, RuntimeError, MissingExtraError) as e:
         raise ScenarioError(f"{key}: {_OneLine(e)}") from None
 
 
 def PlanSourceName(coverage) -> str:
     """The :data:`~eaplan_drake.registry.PLAN_SOURCES` name of a scenario's plan: ``plan_file``
-    when ``coverage.plan_file`` is set, else ``zamboni``."""
-    return "plan_file" if coverage.plan_file else "zamboni"
+    when ``coverage.plan_file`` is set, ``field`` when ``coverage.field`` is, else ``zamboni``."""
+    if coverage.plan_file:
+        return "plan_file"
+    return "field" if coverage.field else "zamboni"
+
+
+def _PlanKey(coverage) -> str:
+    """The scenario key that names the plan in messages."""
+    return {"plan_file": "coverage.plan_file", "field": "coverage.field"}.get(
+        PlanSourceName(coverage), "coverage"
+    )
 
 
 def MakePlanSource(scenario: Scenario, *, initial_c1: float) -> PlanSource:
@@ -236,7 +245,7 @@ def _CheckZamboniGeometry(coverage, key: str = "coverage") -> None:
 
 def _CheckPlan(scenario: Scenario, plan: PlanSource) -> None:
     is_file = isinstance(plan, PlanFile)
-    key = "coverage.plan_file" if is_file else "coverage"
+    key = _PlanKey(scenario.coverage)
     lo, hi = (float(v) for v in scenario.planner.path_parameter_bounds)
     eps = float(scenario.coverage.trigger_radius)
     v_a = float(scenario.vehicle.airspeed)

@@ -120,7 +120,7 @@ def test_plan_help_imports_no_pydrake():
 def test_the_pre_flight_fault_risk_of_the_lowest_plan(tmp_path, capsys):
     from eaplan_drake.planning.risk import FaultModel, TotalDropTail, UniformDrops
 
-    assert main(["plan", SHIPPED, "--out", str(tmp_path)]) == 0
+    assert main(["plan", SHIPPED, "--out", str(tmp_path), "--scenario", "funen"]) == 0
     assert "fault risk      P(drops > margin)" in capsys.readouterr().out
     summary = json.loads((tmp_path / "funen_field" / "summary.json").read_text())
     e, r = summary["lowest_plan"], summary["lowest_plan_risk"]
@@ -134,7 +134,11 @@ def test_the_pre_flight_fault_risk_of_the_lowest_plan(tmp_path, capsys):
     assert TotalDropTail(model, e["time"], m) <= 0.05 < TotalDropTail(model, e["time"], m - 1e-6)
     # without faults there is no risk
     assert (
-        main(["plan", SHIPPED, "--out", str(tmp_path), "--set", "planner.fault_model.rate=0"]) == 0
+        main(
+            ["plan", SHIPPED, "--out", str(tmp_path), "--scenario", "funen"]
+            + ["--set", "planner.fault_model.rate=0"]
+        )
+        == 0
     )
     r0 = json.loads((tmp_path / "funen_field" / "summary.json").read_text())["lowest_plan_risk"]
     assert r0["failure_probability"] == 0.0 and r0["margin_at_risk"] == 0.0

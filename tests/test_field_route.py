@@ -26,6 +26,15 @@ def test_zamboni_order_visits_every_line_once_and_jumps_far():
     assert jumps.min() >= 14
 
 
+def _Heading(leg, where: str) -> np.ndarray:
+    """Unit direction of travel at the start or end of a leg."""
+    if leg.radius == 0.0:
+        v = np.subtract(leg.end, leg.start)
+        return v / np.linalg.norm(v)
+    p = np.subtract(leg.start if where == "start" else leg.end, leg.center) / leg.radius
+    return np.array([-p[1], p[0]]) if leg.ccw else np.array([p[1], -p[0]])
+
+
 @pytest.mark.parametrize("theta", [0.0, 90.0, 30.0])
 def test_the_route_is_continuous_and_its_turns_are_flyable(theta):
     r_min = 62.45
@@ -35,29 +44,43 @@ def test_the_route_is_continuous_and_its_turns_are_flyable(theta):
     for a, b in zip(legs[:-1], legs[1:], strict=True):
         np.testing.assert_allclose(a.end, b.start, atol=1e-9)
     for leg in legs:
-        if leg.kind == "turn":
+        if leg.kind != "line" and leg.radius > 0.0:  # an arc of a turn or a transit
             assert leg.radius >= r_min - 1e-9
             for p in (leg.start, leg.end):  # the circle passes through both ends
                 assert np.hypot(*(np.subtract(p, leg.center))) == pytest.approx(
                     leg.radius, abs=1e-6
                 )
             assert leg.length == pytest.approx(leg.radius * leg.angle, rel=1e-12)
-            assert math.pi - 1e-9 <= leg.angle < 2 * math.pi
+            assert 0.0 < leg.angle < 2 * math.pi
+    for a, b in zip(legs[:-1], legs[1:], strict=True):  # every leg tangent to the next
+        if b.kind != "transit" and a.kind != "transit":
+            np.testing.assert_allclose(_Heading(a, "end"), _Heading(b, "start"), atol=1e-9)
     lines = route.Count("line")
-    assert route.Count("turn") == lines - sum(
-        1 for c in d.cells if True
-    )  # one per line but the last
+    assert route.turns == lines - len(d.cells)  # one per line but the last of each cell
     assert route.Length() == pytest.approx(sum(leg.length for leg in legs), rel=1e-12)
 
 
-def test_lines_far_apart_are_joined_by_half_circles_tangent_to_them():
+def test_lines_far_apart_are_joined_by_quarter_circles_and_a_straight_piece():
+    """Lines w ≥ 2 r_min apart with level ends: the Dubins turn is a quarter circle of r_min, a
+    straight piece of w − 2 r_min across the lines and another quarter circle (one half circle
+    when w = 2 r_min)."""
     rect = shapely.Polygon([(0, 0), (300, 0), (300, 300), (0, 300)])  # 30 lines at 10 m
-    route = MakeRoute(Decompose(rect, 0.0), 10.0, 70.0)  # J = 14: r1 = 75 m, r2 = 70 m
-    turns = [leg for leg in route.legs if leg.kind == "turn"]
-    assert [t.radius for t in turns[:4]] == pytest.approx([75.0, 70.0, 75.0, 70.0], abs=1e-9)
-    for t in turns:
-        assert t.angle == pytest.approx(math.pi, abs=1e-9)
-        assert t.center[0] in (pytest.approx(0.0, abs=1e-9), pytest.approx(300.0, abs=1e-9))
+    route = MakeRoute(Decompose(rect, 0.0), 10.0, 70.0)  # J = 14: turns 150 m and 140 m wide
+    legs = route.legs
+    turns, current = [], []
+    for leg in legs:
+        if leg.kind == "turn":
+            current.append(leg)
+        elif current:
+            turns.append(current)
+            current = []
+    assert len(turns) == route.turns == 29
+    for k, turn in enumerate(turns[:4]):
+        arcs = [leg for leg in turn if leg.radius > 0.0]
+        assert all(a.radius == pytest.approx(70.0, abs=1e-9) for a in arcs)
+        assert sum(a.angle for a in arcs) == pytest.approx(math.pi, abs=1e-9)
+        width = 150.0 if k % 2 == 0 else 140.0  # 140 = 2 r_min: one half circle
+        assert sum(leg.length for leg in turn) == pytest.approx(70.0 * math.pi + width - 140.0)
     assert route.loops == 0
     assert route.Count("line") == 30
 
@@ -69,7 +92,7 @@ def test_route_energy_is_power_times_time():
     time, energy, mean = RouteEnergy(route, v, (p0, p2), g)
     assert time == pytest.approx(route.Length() / v, rel=1e-12)
     expected = sum(
-        leg.length / v * (p0 + g + (p2 * (v / leg.radius) ** 2 if leg.kind == "turn" else 0.0))
+        leg.length / v * (p0 + g + (p2 * (v / leg.radius) ** 2 if leg.radius > 0.0 else 0.0))
         for leg in route.legs
     )
     assert energy == pytest.approx(expected, rel=1e-12)

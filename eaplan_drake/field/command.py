@@ -46,7 +46,14 @@ def RunPlanCommand(args) -> int:
     spacing = LineSpacing(coverage, c1)
     origin = _ParseOrigin(args.origin) if args.origin else None
     field = ReadField(args.field, index=args.polygon, origin=origin, min_width=spacing)
-    plan = MakeFieldPlan(field, spacing, coverage.min_turning_radius, theta_deg=args.sweep_deg)
+    plan = MakeFieldPlan(
+        field,
+        spacing,
+        coverage.min_turning_radius,
+        theta_deg=args.sweep_deg,
+        cells=coverage.field_cells,
+        min_line_length=4.0 * coverage.trigger_radius,
+    )
     energy = LowestPlanEnergy(plan, scenario)
     summary = Summary(plan, energy)
     summary["lowest_plan_risk"] = LowestPlanRisk(energy, scenario)

@@ -67,11 +67,16 @@ def MakeFieldPlan(
     *,
     theta_deg: float | None = None,
     cells: str = "best",
+    min_line_length: float = 0.0,
 ) -> FieldPlan:
     """The plan over ``field`` at line spacing x_d = ``spacing`` and turns of at least r_min =
     ``min_turning_radius`` [m]; θ = ``theta_deg`` [deg from east] or, when None, the direction
     with the shortest route; ``cells`` ``convex``, ``monotone`` (the classic boustrophedon cells,
-    fewer and wider) or ``best`` (whichever gives the shorter route)."""
+    fewer and wider) or ``best`` (whichever gives the shorter route; the search compares routes
+    that visit the nearest cell next, the plan's route then takes the shortest transits,
+    :func:`~eaplan_drake.field.route.MakeRoute`); lines shorter than
+    ``min_line_length`` [m] are left out (:func:`~eaplan_drake.field.route.CellSweepLines`: 4 ε
+    for a plan the sequencer flies)."""
     kinds = {"convex": (True,), "monotone": (False,), "best": (True, False)}
     if cells not in kinds:
         raise ValueError(f"cells: must be one of {', '.join(kinds)}, got {cells!r}")
@@ -80,7 +85,10 @@ def MakeFieldPlan(
     polygon = field.Polygon()
 
     def length(d):
-        return round(MakeRoute(d, spacing, min_turning_radius).Length(), 6)
+        route = MakeRoute(
+            d, spacing, min_turning_radius, min_line_length=min_line_length, order_by="distance"
+        )
+        return round(route.Length(), 6)
 
     best = None
     for convex in kinds[cells]:
@@ -93,7 +101,9 @@ def MakeFieldPlan(
             total = float(sum(np.linalg.norm(ln[1] - ln[0]) for ln in lines))
             choice = SweepChoice(d, len(lines), total, 1)
             chosen_by = "given (--sweep-deg)"
-        route = MakeRoute(choice.decomposition, spacing, min_turning_radius)
+        route = MakeRoute(
+            choice.decomposition, spacing, min_turning_radius, min_line_length=min_line_length
+        )
         if best is None or route.Length() < best.route.Length() - 1e-9:
             best = FieldPlan(field, choice, route, chosen_by)
     return best
@@ -115,7 +125,7 @@ def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
     soc = float(scenario.battery.initial_soc)
     p0, p2 = coefficients
     for leg in plan.route.legs:
-        rate = vehicle.airspeed / leg.radius if leg.kind == "turn" else 0.0
+        rate = vehicle.airspeed / leg.radius if leg.radius > 0.0 else 0.0
         soc = battery.SocAfter(soc, p0 + p2 * rate * rate + g, leg.length / vehicle.airspeed)
     return {
         "time": time,
@@ -167,9 +177,9 @@ def Summary(plan: FieldPlan, energy: dict | None = None) -> dict:
         "line_spacing_m": route.spacing,
         "min_turning_radius_m": route.min_turning_radius,
         "lines": route.Count("line"),
-        "turns": route.Count("turn"),
+        "turns": route.turns,
         "loops": route.loops,
-        "transits": route.Count("transit"),
+        "transits": route.transits,
         "line_length_m": route.Length("line"),
         "turn_length_m": route.Length("turn"),
         "transit_length_m": route.Length("transit"),
@@ -259,6 +269,8 @@ def PlotFieldPlan(plan: FieldPlan):
             ax.plot(*np.array([leg.start, leg.end]).T, color="#1f5fbf", lw=0.8)
         elif leg.kind == "turn":
             ax.plot(*_Arc(leg).T, color="#e08a1e", lw=0.6)
+        elif leg.radius > 0.0:
+            ax.plot(*_Arc(leg).T, color="#444444", lw=0.8, ls="--")
         else:
             ax.plot(*np.array([leg.start, leg.end]).T, color="#444444", lw=0.8, ls="--")
     ax.plot(*plan.route.legs[0].start, "o", color="#1f5fbf", ms=5, label="start")

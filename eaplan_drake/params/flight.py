@@ -112,6 +112,14 @@ class CoverageParams(_Params):
     plan_file: str = ""
     """Optional authors'-format ``.pln`` plan to fly instead of generating one ("" = generate;
     "reference" = the packaged authors' plan)."""
+    field: str = ""
+    """Optional field to survey instead of ``polygon``: a GeoJSON, KML or QGroundControl ``.plan``
+    file (WGS84; holes allowed; needs the ``[field]`` extra), read in the local east-north frame
+    of its first vertex ("" = ``polygon``; ``funen_field`` = the packaged illustrative field; a
+    relative path is taken from the scenario's folder)."""
+    field_cells: str = "best"
+    """How a ``field`` is split into cells: ``convex``, ``monotone`` (the classic boustrophedon
+    cells) or ``best`` (whichever flies shorter)."""
     trigger_radius: float = 2.0
     """ε, a stage switches when the aircraft is within this distance of its triggering point (or
     has passed it) [m], >= 0."""
@@ -136,6 +144,16 @@ class CoverageParams(_Params):
             f"{self.turning_radius:g}",
         )
         _nonnegative(self.trigger_radius, f"{key}.trigger_radius")
+        _check(
+            not (self.field and self.plan_file),
+            f"{key}.field",
+            "give a field or a plan_file, not both",
+        )
+        _check(
+            self.field_cells in ("best", "convex", "monotone"),
+            f"{key}.field_cells",
+            f"must be one of best, convex, monotone, got {self.field_cells!r}",
+        )
 
 
 @dc.dataclass

@@ -1,0 +1,340 @@
+"""A field read from a file as a plan source: the cells' Zamboni-like lines and turns as the
+stages the sequencer flies, re-planned in c1 from the next cell on.
+
+The cells and the sweep direction θ are chosen once, for the lowest plan's line spacing
+x_d(c̲1) (:func:`~eaplan_drake.field.plan.MakeFieldPlan`; cells convex or monotone, whichever
+flies shorter), and so is the order the cells are visited in. At a path parameter c1 [m²] each
+cell is flown with the lines of spacing x_d(c1) = 2 r1 − 2 r2(c1)
+(:func:`~eaplan_drake.field.plan.LineSpacing`, paper 003 Eq. 14: x_d at c1 = 0, wider below),
+in the Zamboni-like order of :mod:`eaplan_drake.field.route`, the first cell as the pre-flight
+route enters it, every later one at the end nearest to where the previous cell ended (so at c̲1
+the survey is the route of :func:`~eaplan_drake.field.plan.MakeFieldPlan` that ``eaplan-drake
+plan`` predicts and exports). The stages, in flight order:
+
+- the *approach* (primitive −1, :data:`~eaplan_drake.flight.stages.APPROACH`): the shortest
+  (Dubins) path of radius r_min from the start, along ψ(0) (``vehicle.initial_heading_deg``),
+  onto the first line at its start;
+- each survey line (primitive 0 or 2, alternately within a cell) with its end as triggering point
+  (lines shorter than 4 ε, slivers in sharp corners, are left out);
+- each turn (primitive 1 after a line of primitive 0, else 3): a half circle, or the three arcs
+  of an Ω turn (:func:`~eaplan_drake.field.route.TurnLegs`), the later arcs
+  :data:`CONTINUED`; an arc longer than a half circle is two stages, split at its middle, so that
+  the sequencer's "passed the triggering point" test never fires on entry;
+- between cells, a *transit* (primitive −1, like the approach: not part of the survey length) to
+  the next cell's first line: the shortest turn–straight–turn path of radius r_min
+  (:func:`~eaplan_drake.field.route.TransitLegs`).
+
+A leg shorter than 4 ε (``coverage.trigger_radius``: a sliver of a transit or of an Ω turn) is
+left out (the sequencer needs 4 ε between triggering points) and the guidance joins the next
+stage directly.
+
+Four primitives alternate as in the paper's plan (line, turn, line, turn), so the sequencer's
+period T (the time between two entries into the same primitive) is a line pair with its turns.
+
+Re-planning (:meth:`~eaplan_drake.flight.coverage.PlanSource.Replan`) keeps the rest of the cell
+being flown (or entered, on its transit) as it is and regenerates the later cells at the new c1.
+A stage's anchor is all the source needs to continue: (c1 of its cell, the cell's place in the
+visiting order, the cell's orientation 0–3, the leg's place in its cell) on a cell, (c1, the
+piece, 0, −1) on the approach, (c1 of the next cell, the transit's start x, y [m], a tag of the
+cell, the piece and the heading) on a transit (:meth:`FieldCoverage._TransitStages`); + 0.5 on
+the second half of a split arc.
+
+Lengths in m, angles in rad, c1 in m².
+"""
+
+import math
+
+import numpy as np
+
+from eaplan_drake.field.route import (
+    CellLegs,
+    CellSweepLines,
+    OrderCellLines,
+    TransitLegs,
+    TurnJump,
+)
+from eaplan_drake.flight.coverage import PlanSource
+from eaplan_drake.flight.paths import Circle, Line
+from eaplan_drake.flight.stages import APPROACH, NUM_PRIMITIVES, Stage
+
+__all__ = ["CONTINUED", "PACKAGED_FIELDS", "FieldCoverage", "FieldPath", "MakeFieldPlanSource"]
+
+PACKAGED_FIELDS = {"funen_field": "funen_field.geojson"}
+"""Fields shipped in ``eaplan_drake/data`` that ``coverage.field`` may name instead of a path."""
+
+CONTINUED = NUM_PRIMITIVES
+"""Primitive of a stage that continues a turn (an Ω turn's later arcs, a split arc's second
+half): part of the survey, outside the sequencer's primitives 0–3 that measure the period."""
+
+
+def FieldPath(name_or_path: str) -> str:
+    """The file of ``coverage.field``: a packaged field's (:data:`PACKAGED_FIELDS`) or the path."""
+    if name_or_path in PACKAGED_FIELDS:
+        from importlib import resources
+
+        return str(resources.files("eaplan_drake") / "data" / PACKAGED_FIELDS[name_or_path])
+    return name_or_path
+
+
+def _Left(d) -> np.ndarray:
+    return np.array([-d[1], d[0]], dtype=float)
+
+
+def _Unit(v) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+class FieldCoverage(PlanSource):
+    """The survey of a field with holes (:class:`~eaplan_drake.field.readers.Field`) as a
+    function of c1 (module docstring).
+
+    Args:
+        field: the field, local east-north [m].
+        coverage: the scenario's :class:`~eaplan_drake.params.CoverageParams` (x_d, r, r_min, ε).
+        start: the aircraft's start position [m].
+        airspeed: v_a [m/s].
+        initial_c1: c1 of the initial plan [m²], within ``c1_bounds``.
+        k_e: the field gain of every path [1/m].
+        c1_bounds: [c̲1, c̄1] [m²], with r2(c̲1) ≥ r_min.
+        initial_heading_deg: ψ(0) [deg from east, counter-clockwise] at ``start``.
+        cells: ``best``, ``convex`` or ``monotone``
+            (:func:`~eaplan_drake.field.plan.MakeFieldPlan`).
+    """
+
+    def __init__(
+        self,
+        field,
+        coverage,
+        *,
+        start,
+        airspeed: float,
+        initial_c1: float,
+        k_e: float,
+        c1_bounds,
+        initial_heading_deg: float = 0.0,
+        cells: str = "best",
+    ):
+        from eaplan_drake.field.plan import LineSpacing, MakeFieldPlan
+
+        self.field = field
+        self.r = float(coverage.turning_radius)
+        self.r_min = float(coverage.min_turning_radius)
+        self.min_leg = 4.0 * float(coverage.trigger_radius)
+        self.k_e = float(k_e)
+        self._coverage = coverage
+        self._spacing = LineSpacing
+        self.start = np.array(start, dtype=float).reshape(2)
+        psi = math.radians(float(initial_heading_deg))
+        self.heading = np.array([math.cos(psi), math.sin(psi)])
+        lo = float(c1_bounds[0])
+        if not (lo >= self.r_min**2 - self.r**2 - 1e-6):
+            raise ValueError(
+                f"planner.path_parameter_bounds: c1 = {lo:g} m² makes r2 < r_min; at least "
+                f"r_min² − r² = {self.r_min**2 - self.r**2:g}"
+            )
+        plan = MakeFieldPlan(
+            field, LineSpacing(coverage, lo), self.r_min, cells=cells, min_line_length=self.min_leg
+        )
+        self.plan = plan
+        self.decomposition = plan.choice.decomposition
+        self.theta_deg = float(self.decomposition.theta_deg)
+        self.cell_order = tuple(dict.fromkeys(leg.cell for leg in plan.route.legs if leg.cell >= 0))
+        super().__init__(c1_bounds, initial_c1=initial_c1, airspeed=airspeed)
+
+    # -- legs --------------------------------------------------------------------------------------
+
+    def Spacing(self, c1: float) -> float:
+        """x_d(c1) [m] of the lines at c1."""
+        return float(self._spacing(self._coverage, c1))
+
+    def _CellLines(self, place: int, c1: float, position, orientation=None, heading=None):
+        """(orientation, legs) of the cell at ``place`` in the visiting order at c1, entered
+        from ``position`` travelling along ``heading`` (:func:`OrderCellLines`)."""
+        spacing = self.Spacing(c1)
+        cell = self.decomposition.cells[self.cell_order[place]]
+        lines = CellSweepLines(cell, self.theta_deg, spacing, self.min_leg)
+        jump = TurnJump(spacing, self.r_min)
+        _, code, seq = OrderCellLines(lines, jump, position, orientation, heading, self.r_min)
+        return code, CellLegs(seq, self.r_min, self.cell_order[place])
+
+    # -- stages ------------------------------------------------------------------------------------
+
+    def _Stage(self, index, path, trigger, primitive, c1, entry, length, anchor) -> Stage:
+        return Stage(
+            index=index,
+            path=path,
+            trigger=(float(trigger[0]), float(trigger[1])),
+            primitive=primitive,
+            c1=float(c1),
+            entry=(float(entry[0]), float(entry[1])),
+            length=float(length),
+            anchor=tuple(float(a) for a in anchor),
+        )
+
+    def _LegStages(self, leg, index: int, primitive: int, c1, anchor) -> list[Stage]:
+        """The stages of one leg (a loop turn is two)."""
+        start, end = np.asarray(leg.start), np.asarray(leg.end)
+        if leg.radius == 0.0:
+            path = Line(start, _Left(_Unit(end - start)), s=1.0, k_e=self.k_e)
+            return [self._Stage(index, path, end, primitive, c1, start, leg.length, anchor)]
+        center = np.asarray(leg.center)
+        path = Circle(center, leg.radius, s=-1.0 if leg.ccw else 1.0, k_e=self.k_e)
+        if leg.angle <= math.pi + 1e-9:
+            return [self._Stage(index, path, end, primitive, c1, start, leg.length, anchor)]
+        half = 0.5 * leg.angle * (1.0 if leg.ccw else -1.0)
+        c, s = math.cos(half), math.sin(half)
+        middle = center + np.array([[c, -s], [s, c]]) @ (start - center)
+        second = (*anchor[:3], anchor[3] + 0.5)
+        then = APPROACH if primitive == APPROACH else CONTINUED
+        return [
+            self._Stage(index, path, middle, primitive, c1, start, 0.5 * leg.length, anchor),
+            self._Stage(index + 1, path, end, then, c1, middle, 0.5 * leg.length, second),
+        ]
+
+    def _Heading(self, s: int) -> np.ndarray:
+        """The lines' direction u(θ) (s = 0) or −u(θ) (s = 1)."""
+        theta = math.radians(self.theta_deg)
+        u = np.array([math.cos(theta), math.sin(theta)])
+        return u if s == 0 else -u
+
+    def _Side(self, leg) -> int:
+        """s of the direction of travel of a line ``leg`` (:meth:`_Heading`)."""
+        return 0 if np.subtract(leg.end, leg.start) @ self._Heading(0) > 0.0 else 1
+
+    def _Transit(self, k: int, c1: float, position, s: int):
+        """(orientation, legs of the cell at ``place`` k at c1 entered from ``position``, the
+        transit pieces from ``position`` travelling along :meth:`_Heading` (s))."""
+        code, legs = self._CellLines(k, c1, position, heading=self._Heading(s))
+        line = np.subtract(legs[0].end, legs[0].start)
+        pieces = TransitLegs(position, self._Heading(s), legs[0].start, line, self.r_min)
+        return code, legs, pieces
+
+    def _TransitStages(self, k, c1, position, s, pieces, index, first=0) -> list[Stage]:
+        """The stages of the transit ``pieces[first:]`` into the cell at ``place`` k. Their
+        anchor is (c1, x, y, tag): the transit's start (x, y) [m] and tag = −2 − 2(8k + 2m + s)
+        for piece m (+ 0.5 on the second half of a split arc)."""
+        stages: list[Stage] = []
+        for m in range(first, len(pieces)):
+            if pieces[m].length < self.min_leg:
+                continue
+            tag = -2.0 - 2.0 * (8 * k + 2 * m + s)
+            anchor = (c1, float(position[0]), float(position[1]), tag)
+            stages += self._LegStages(pieces[m], index, APPROACH, c1, anchor)
+            index = stages[-1].index + 1
+        return stages
+
+    def _Cells(self, place: int, c1: float, position, s: int, index: int) -> list[Stage]:
+        """The stages of the cells from ``place`` on at c1, each after its transit from
+        ``position`` [m] travelling along :meth:`_Heading` (s); the first cell (place 0) after
+        the approach instead."""
+        stages: list[Stage] = []
+        for k in range(place, len(self.cell_order)):
+            if k == 0:
+                code, legs = self._CellLines(0, c1, None)
+            else:
+                code, legs, pieces = self._Transit(k, c1, position, s)
+                stages += self._TransitStages(k, c1, position, s, pieces, index)
+                index = stages[-1].index + 1 if stages else index
+            stages += self._CellStages(legs, k, code, c1, index, 0)
+            index = stages[-1].index + 1
+            position, s = np.asarray(legs[-1].end), self._Side(legs[-1])
+        return stages
+
+    def _CellStages(self, legs, place, code, c1, index, first) -> list[Stage]:
+        """The stages of a cell's ``legs[first:]``: line k has primitive 0 (k even) or 2, the
+        first arc of the turn after it 1 or 3; the later arcs of an Ω turn and the second half
+        of a split arc are :data:`CONTINUED` (no period is measured on them)."""
+        stages: list[Stage] = []
+        lines = sum(1 for leg in legs[:first] if leg.kind == "line")
+        after_line = first > 0 and legs[first - 1].kind == "line"
+        for j in range(first, len(legs)):
+            leg = legs[j]
+            if leg.kind == "line":
+                primitive = 0 if lines % 2 == 0 else 2
+                lines += 1
+            elif leg.length < self.min_leg:  # a sliver of an Ω turn: the guidance joins it
+                continue
+            else:
+                primitive = (1 if lines % 2 == 1 else 3) if after_line else CONTINUED
+            after_line = leg.kind == "line"
+            stages += self._LegStages(leg, index, primitive, c1, (c1, place, code, j))
+            index = stages[-1].index + 1
+        return stages
+
+    def _ApproachStages(self, c1: float, legs, first: int = 0, index: int = 0) -> list[Stage]:
+        """The approach from pieces ``first`` on: the Dubins path of radius r_min from the start,
+        along ψ(0), onto the first line of the first cell (``legs``) at c1. Anchor (c1, m, 0,
+        −1) for piece m (+ 0.5 on the second half of a split arc)."""
+        line = np.subtract(legs[0].end, legs[0].start)
+        pieces = TransitLegs(self.start, self.heading, legs[0].start, line, self.r_min)
+        kept = [m for m, leg in enumerate(pieces) if leg.length >= self.min_leg]
+        kept = kept or [len(pieces) - 1]  # at least one stage: onto the first line
+        stages: list[Stage] = []
+        for m in kept:
+            if m < first:
+                continue
+            anchor = (c1, float(m), 0.0, -1.0)
+            stages += self._LegStages(pieces[m], index, APPROACH, c1, anchor)
+            index = stages[-1].index + 1
+        return stages
+
+    def _Stages(self, c1: float) -> tuple[Stage, ...]:
+        # The first cell is entered as the pre-flight route enters it (its first orientation):
+        # at c̲1 the stages are the lines and turns of that route.
+        _, legs = self._CellLines(0, c1, None)
+        approach = self._ApproachStages(c1, legs)
+        return (*approach, *self._Cells(0, c1, None, 0, len(approach)))
+
+    def _StagesAfter(self, index: int, anchor, c1: float) -> tuple[Stage, ...]:
+        c1_a, a1, a2, j = anchor
+        half = j != math.floor(j)
+        first = index - (1 if half else 0)  # the index of the leg's first stage
+        if -1.0 <= j < 0.0:  # an approach piece: the rest of it and the first cell at c1_a
+            k = 0
+            _, legs = self._CellLines(0, c1_a, None)
+            stages = self._ApproachStages(c1_a, legs, int(round(a1)), first)
+            rest = [st for st in stages if st.index > index]
+            nxt = (rest[-1].index if rest else index) + 1
+            rest += self._CellStages(legs, 0, 0, c1_a, nxt, 0)
+        elif j < -1.0:  # a transit piece into cell k: the rest of it, then the cell, at c1_a
+            n = int(round((-2.0 - math.floor(j)) / 2.0))
+            k, m, s = n // 8, (n % 8) // 2, n % 2
+            position = np.array([a1, a2])
+            code, legs, pieces = self._Transit(k, c1_a, position, s)
+            stages = self._TransitStages(k, c1_a, position, s, pieces, first, m)
+            rest = [st for st in stages if st.index > index]
+            nxt = (rest[-1].index if rest else index) + 1
+            rest += self._CellStages(legs, k, code, c1_a, nxt, 0)
+        else:  # leg j of the cell at ``place`` (or the second half of its arc, j + 0.5)
+            k, code = int(round(a1)), int(round(a2))
+            _, legs = self._CellLines(k, c1_a, None, code)
+            stages = self._CellStages(legs, k, code, c1_a, first, int(math.floor(j)))
+            rest = [st for st in stages if st.index > index]
+        nxt = (rest[-1].index if rest else index) + 1
+        end, s = np.asarray(legs[-1].end), self._Side(legs[-1])
+        return (*rest, *self._Cells(k + 1, c1, end, s, nxt))
+
+
+def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
+    """The plan source of ``scenario``'s ``coverage.field`` (a GeoJSON, KML or QGroundControl
+    file, or a packaged field's name, :func:`FieldPath`, read in the local frame of its first
+    vertex, :func:`~eaplan_drake.field.readers.ReadField`; c1 over
+    ``planner.path_parameter_bounds``), flown from ``vehicle.initial_position`` at
+    ``vehicle.airspeed`` with the field gain ``guidance.k_e``, starting with ``initial_c1`` [m²].
+    Needs the ``[field]`` extra. Raises ValueError (or OSError for the file)."""
+    from eaplan_drake.field.readers import ReadField
+
+    coverage = scenario.coverage
+    field = ReadField(FieldPath(coverage.field))
+    return FieldCoverage(
+        field,
+        coverage,
+        start=scenario.vehicle.initial_position,
+        airspeed=scenario.vehicle.airspeed,
+        initial_c1=initial_c1,
+        k_e=scenario.guidance.k_e,
+        c1_bounds=scenario.planner.path_parameter_bounds,
+        initial_heading_deg=scenario.vehicle.initial_heading_deg,
+        cells=coverage.field_cells,
+    )
