@@ -238,8 +238,8 @@ def ShippedFile(
 
 def LoadNamedScenario(name_or_path: str | Path, overrides: typing.Sequence[str] = ()) -> Scenario:
     """A shipped scenario by name (:func:`ShippedNames`: ``plan_I``, ``plan_II``, ``plan_i``,
-    ``plan_ii``, ``survey``) or a YAML path, with the YAML ``overrides`` layered on it in order
-    (see :func:`LoadScenario`). Raises :class:`ScenarioError` with one clear line on any
+    ``plan_ii``, ``survey``, ``funen``) or a YAML path, with the YAML ``overrides`` layered on it
+    in order (see :func:`LoadScenario`). Raises :class:`ScenarioError` with one clear line on any
     problem."""
     path, shipped = ShippedFile(name_or_path, "scenarios", "LoadNamedScenario")
     if shipped:

@@ -142,3 +142,91 @@ def test_the_pre_flight_fault_risk_of_the_lowest_plan(tmp_path, capsys):
     )
     r0 = json.loads((tmp_path / "funen_field" / "summary.json").read_text())["lowest_plan_risk"]
     assert r0["failure_probability"] == 0.0 and r0["margin_at_risk"] == 0.0
+
+
+def _Feasible(plan, scenario, c1, c2, lowest):
+    """(margin ≥ 0 and excess risk ≤ ε) of the static plan (c1, c2), computed here from the
+    route's prediction and the fault model's tail."""
+    from eaplan_drake.field.plan import RoutePrediction
+    from eaplan_drake.field.route import MakeRoute
+    from eaplan_drake.planning.risk import TotalDropTail
+    from eaplan_drake.planning.risk_margin import FaultModelFromParams
+
+    coverage = scenario.coverage
+    route = MakeRoute(
+        plan.choice.decomposition,
+        LineSpacing(coverage, c1),
+        coverage.min_turning_radius,
+        min_line_length=4.0 * coverage.trigger_radius,
+    )
+    p = RoutePrediction(route, scenario, [c2])
+    margin = p["final_soc"] - scenario.battery.reserve_soc
+    model = FaultModelFromParams(scenario.planner.fault_model)
+
+    def Tail(tau, m):
+        return 1.0 if m < 0.0 else TotalDropTail(model, tau, m)
+
+    if lowest is None:
+        return p["time"], margin
+    return margin >= 0.0 and Tail(p["time"], margin) - Tail(*lowest) <= scenario.planner.risk
+
+
+@pytest.mark.parametrize("risk", [0.05, 1.0])
+def test_the_best_static_plan_is_the_highest_quality_that_keeps_the_risk(risk):
+    from eaplan_drake.field.plan import BestStaticPlan, MakeFieldPlan
+    from eaplan_drake.loading import LoadNamedScenario
+
+    scenario = LoadNamedScenario("funen")
+    scenario.planner.risk = risk
+    coverage = scenario.coverage
+    field = ReadField(SHIPPED)
+    plan = MakeFieldPlan(
+        field,
+        LineSpacing(coverage, -1000.0),
+        coverage.min_turning_radius,
+        min_line_length=4.0 * coverage.trigger_radius,
+    )
+    best = BestStaticPlan(plan, scenario, grid_size=5)
+    assert best["feasible"] and best["plans_tried"] == 5 * 5
+    assert best["margin"] >= 0.0 and best["excess_risk"] <= risk
+    lowest = _Feasible(plan, scenario, -1000.0, 2.0, None)
+    c1, (c2,) = best["path_parameter_c1"], best["computation_parameters"]
+    assert _Feasible(plan, scenario, c1, c2, lowest)
+    # Every plan of higher quality along either axis is out: a larger c2 at this c1, a larger c1
+    # at this c2.
+    if c2 < 10.0:
+        assert not _Feasible(plan, scenario, c1, c2 + 2.0, lowest)
+    if c1 < 0.0:
+        assert not _Feasible(plan, scenario, c1 + 250.0, c2, lowest)
+    if risk == 1.0:  # only the margin binds: higher quality than at ε = 0.05
+        scenario.planner.risk = 0.05
+        assert best["quality"] > BestStaticPlan(plan, scenario, grid_size=5)["quality"]
+
+
+def test_the_point_of_no_return_is_the_first_leg_end_beyond_reach_of_home():
+    from eaplan_drake.field.plan import PointOfNoReturn, RoutePrediction
+    from eaplan_drake.field.route import MakeRoute
+    from eaplan_drake.flight.plant import MotionPowerCoefficients
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.registry import BATTERY_MODELS
+
+    scenario = LoadNamedScenario("funen")
+    rect = shapely.Polygon([(0, 0), (600, 0), (600, 400), (0, 400)])
+    route = MakeRoute(Decompose(rect, 0.0), 25.0, 62.45)
+    p = RoutePrediction(route, scenario, [2.0])
+    assert PointOfNoReturn(route, p, scenario) is None  # 1.6 × the reference battery: plenty
+    scenario.battery.capacity = 2.0
+    p = RoutePrediction(route, scenario, [2.0])
+    pnr = PointOfNoReturn(route, p, scenario)
+    assert pnr is not None and 0 < pnr["leg"] < len(route.legs)
+    battery = BATTERY_MODELS.Make("rint", scenario.battery)
+    p0, _ = MotionPowerCoefficients(scenario.vehicle.airspeed, scenario.vehicle.motion_power)
+    home = np.asarray(route.legs[0].start)
+
+    def Back(k):
+        d = np.linalg.norm(np.asarray(route.legs[k].end) - home) / scenario.vehicle.airspeed
+        return battery.SocAfter(p["soc_after_leg"][k], p0 + p["computation_power"], d)
+
+    assert Back(pnr["leg"]) < scenario.battery.reserve_soc <= Back(pnr["leg"] - 1)
+    elapsed = sum(leg.length for leg in route.legs[: pnr["leg"] + 1]) / scenario.vehicle.airspeed
+    assert pnr["time_s"] == pytest.approx(elapsed, rel=1e-12)

@@ -86,7 +86,7 @@ def test_a_registry_checks_builds_and_extends():
 def test_the_shipped_tables_name_every_choice():
     assert POLICIES.Names() == ("mpc", "paper", "greedy", "greedy_authors", "static", "hindsight")
     assert AIRCRAFT_MODELS.Names() == ("continuous", "exact_arc")
-    assert PLAN_SOURCES.Names() == ("zamboni", "plan_file")
+    assert PLAN_SOURCES.Names() == ("zamboni", "plan_file", "field")
     assert BATTERY_MODELS.Names() == ("rint",)
     assert POWER_LOG_READERS.Names() == ("csv", "ulog")
     for registry in (POLICIES, AIRCRAFT_MODELS, PLAN_SOURCES, BATTERY_MODELS, POWER_LOG_READERS):

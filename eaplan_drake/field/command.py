@@ -24,6 +24,7 @@ def RunPlanCommand(args) -> int:
     Require("shapely")
     Require("pyproj")
     from eaplan_drake.field.plan import (
+        BestStaticPlan,
         FormatFieldPlan,
         LineSpacing,
         LowestPlanEnergy,
@@ -57,6 +58,7 @@ def RunPlanCommand(args) -> int:
     energy = LowestPlanEnergy(plan, scenario)
     summary = Summary(plan, energy)
     summary["lowest_plan_risk"] = LowestPlanRisk(energy, scenario)
+    summary["best_static_plan"] = BestStaticPlan(plan, scenario)
     summary["scenario"] = scenario.name
     summary["path_parameter_c1"] = c1
     out = Path(args.out) / Path(args.field).stem

@@ -7,10 +7,11 @@ in WGS84 through the field's :class:`~eaplan_drake.field.geodesy.LocalFrame`:
 - item 0, *home*, at ``home`` (default: the start of the first line);
 - a takeoff (``MAV_CMD_NAV_TAKEOFF`` = 22) towards the first line;
 - each survey line: a waypoint (``MAV_CMD_NAV_WAYPOINT`` = 16) at its start and one at its end;
-- each turn: ``MAV_CMD_NAV_LOITER_TURNS`` (18) at the circle's centre, param 1 the turns flown
-  (angle / 2π, a fraction: ArduPlane and PX4 round or ignore fractions differently, so the next
-  line's start waypoint is what ends the turn), param 3 the radius [m], positive clockwise and
-  negative counter-clockwise (MAVLink's convention);
+- each arc of a turn: ``MAV_CMD_NAV_LOITER_TURNS`` (18) at the circle's centre, param 1 the
+  turns flown (angle / 2π, a fraction: ArduPlane and PX4 round or ignore fractions differently,
+  so the next line's start waypoint is what ends the turn), param 3 the radius [m], positive
+  clockwise and negative counter-clockwise (MAVLink's convention);
+- a turn's straight piece: a waypoint at its end;
 - transits are the straight flight to the next line's start waypoint.
 
 Altitudes are ``altitude`` [m] above home (MAVLink frame 3, ``MAV_FRAME_GLOBAL_RELATIVE_ALT``;
@@ -96,6 +97,8 @@ def MissionItems(
     for leg in route.legs:
         if leg.kind == "line":
             points.append((MAV_CMD_NAV_WAYPOINT, leg.start, (0.0,) * 4, 3, altitude))
+            points.append((MAV_CMD_NAV_WAYPOINT, leg.end, (0.0,) * 4, 3, altitude))
+        elif leg.kind == "turn" and leg.radius == 0.0:  # a turn's straight piece
             points.append((MAV_CMD_NAV_WAYPOINT, leg.end, (0.0,) * 4, 3, altitude))
         elif leg.kind == "turn":
             turns = leg.angle / (2.0 * math.pi)
@@ -220,6 +223,10 @@ def PaparazziFlightPlanText(
             waypoints += [(a, leg.start), (b, leg.end)]
             stages.append(f'      <go wp="{a}"/>')
             stages.append(f'      <go from="{a}" wp="{b}" hmode="route"/>')
+        elif leg.kind == "turn" and leg.radius == 0.0:  # a turn's straight piece
+            e = f"T{k}_E"
+            waypoints.append((e, leg.end))
+            stages.append(f'      <go wp="{e}"/>')
         elif leg.kind == "turn":
             c = f"T{k}_C"
             waypoints.append((c, leg.center))

@@ -11,7 +11,9 @@ models and no flight: motion power P_0 + P_2 ψ̇² (:mod:`eaplan_drake.flight.p
 on turns, the computation table's power at its lowest parameters g(c̲2), and the battery model's
 SoC rate ḃ(y) integrated leg by leg from ``battery.initial_soc``. At c̲1 and c̲2 this is the
 paper's static lowest plan, without wind and without the approach to the first line.
-:func:`LowestPlanRisk` adds its pre-flight fault risk under ``planner.fault_model``.
+:func:`LowestPlanRisk` adds its pre-flight fault risk under ``planner.fault_model``, and
+:func:`BestStaticPlan` finds the highest-quality static plan (c1, c2) that still completes at the
+scenario's risk level, with its point of no return (:func:`PointOfNoReturn`).
 
 Lengths in m, times in s, powers in W, energies in J, angles in degrees.
 """
@@ -26,11 +28,14 @@ from eaplan_drake.field.readers import Field
 from eaplan_drake.field.route import MakeRoute, Route, RouteEnergy
 
 __all__ = [
+    "BestStaticPlan",
     "FieldPlan",
     "FormatFieldPlan",
     "LineSpacing",
     "LowestPlanEnergy",
     "LowestPlanRisk",
+    "PointOfNoReturn",
+    "RoutePrediction",
     "MakeFieldPlan",
     "PlotFieldPlan",
     "SaveFieldPlan",
@@ -109,9 +114,10 @@ def MakeFieldPlan(
     return best
 
 
-def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
-    """Time [s], energy [J], mean power [W] and SoC of flying ``plan`` at the lowest plan with
-    ``scenario``'s vehicle, computation table and battery (see the module docstring)."""
+def RoutePrediction(route: Route, scenario, computation_parameters) -> dict:
+    """Time [s], energy [J], mean power [W] and SoC of flying ``route`` in still air at the
+    constant ``computation_parameters`` c2 with ``scenario``'s vehicle, computation table and
+    battery (see the module docstring); ``soc_after_leg`` is the SoC at the end of each leg."""
     from eaplan_drake.energy.computation import LoadComputationTable
     from eaplan_drake.flight.plant import MotionPowerCoefficients
     from eaplan_drake.registry import BATTERY_MODELS
@@ -119,23 +125,135 @@ def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
     vehicle = scenario.vehicle
     coefficients = MotionPowerCoefficients(vehicle.airspeed, vehicle.motion_power)
     table = LoadComputationTable(scenario.computation.table)
-    g = float(table.power(table.lower))
-    time, energy, mean = RouteEnergy(plan.route, vehicle.airspeed, coefficients, g)
+    c2 = [float(c) for c in computation_parameters]
+    g = float(table.power(c2))
+    time, energy, mean = RouteEnergy(route, vehicle.airspeed, coefficients, g)
     battery = BATTERY_MODELS.Make(scenario.battery.model, scenario.battery)
     soc = float(scenario.battery.initial_soc)
     p0, p2 = coefficients
-    for leg in plan.route.legs:
+    after = []
+    for leg in route.legs:
         rate = vehicle.airspeed / leg.radius if leg.radius > 0.0 else 0.0
         soc = battery.SocAfter(soc, p0 + p2 * rate * rate + g, leg.length / vehicle.airspeed)
+        after.append(float(soc))
     return {
         "time": time,
         "energy": energy,
         "mean_power": mean,
         "computation_power": g,
-        "computation_parameters": [float(c) for c in table.lower],
+        "computation_parameters": c2,
         "initial_soc": float(scenario.battery.initial_soc),
         "final_soc": soc,
         "reserve_soc": float(scenario.battery.reserve_soc),
+        "soc_after_leg": after,
+    }
+
+
+def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
+    """:func:`RoutePrediction` of ``plan``'s route at the table's lowest parameters c̲2: at
+    c̲1 the paper's static lowest plan, without wind and without the approach."""
+    from eaplan_drake.energy.computation import LoadComputationTable
+
+    table = LoadComputationTable(scenario.computation.table)
+    prediction = RoutePrediction(plan.route, scenario, table.lower)
+    del prediction["soc_after_leg"]
+    return prediction
+
+
+def PointOfNoReturn(route: Route, prediction: dict, scenario, home=None) -> dict | None:
+    """The first point along ``route`` (a leg's end) from which flying straight back to ``home``
+    [m] (default: the first line's start) at the route's computation power would end below the
+    reserve: its leg index, position [m] and time along the route [s]; None when home stays
+    reachable from every leg's end (``prediction`` from :func:`RoutePrediction`)."""
+    from eaplan_drake.flight.plant import MotionPowerCoefficients
+    from eaplan_drake.registry import BATTERY_MODELS
+
+    vehicle = scenario.vehicle
+    p0, _ = MotionPowerCoefficients(vehicle.airspeed, vehicle.motion_power)
+    battery = BATTERY_MODELS.Make(scenario.battery.model, scenario.battery)
+    lines = [leg for leg in route.legs if leg.kind == "line"]
+    home = np.asarray(lines[0].start if home is None else home, dtype=float)
+    power = p0 + float(prediction["computation_power"])
+    t = 0.0
+    for k, (leg, soc) in enumerate(zip(route.legs, prediction["soc_after_leg"], strict=True)):
+        t += leg.length / vehicle.airspeed
+        back = float(np.linalg.norm(np.asarray(leg.end) - home)) / vehicle.airspeed
+        if battery.SocAfter(soc, power, back) < scenario.battery.reserve_soc:
+            return {"leg": k, "position_m": [float(v) for v in leg.end], "time_s": t}
+    return None
+
+
+def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
+    """The highest-quality static plan (c1, c2) that a stock autopilot could fly over ``plan``'s
+    cells without the in-flight planner and still complete at the scenario's risk level: among
+    ``grid_size`` values of c1 over ``planner.path_parameter_bounds`` (each with its own line
+    spacing over the same cells and direction) and the computation table's grid of c2, the one of
+    highest quality ½ c̃1 + ½ c̃2 (ties: the lower) whose margin m = final SoC − reserve is ≥ 0
+    and whose excess risk under ``planner.fault_model`` is at most ε = ``planner.risk``.
+
+    The excess risk of a static plan (time τ, margin m) over the static lowest plan (τ_0, m_0) is
+    the probability that it fails although the lowest plan would have completed (the risk
+    planner's definition, :mod:`eaplan_drake.planning.risk`): as τ ≥ τ_0 and m ≤ m_0 the lowest
+    plan's failures are among the plan's, so it is P(S(τ) > m) − P(S(τ_0) > m_0) with S(τ) the
+    total SoC drop in τ. Returns the plan's c1 [m²], c2, quality, prediction, margin, excess
+    risk, point of no return (:func:`PointOfNoReturn`) and how many grid plans were tried."""
+    import itertools
+
+    from eaplan_drake.energy.computation import LoadComputationTable
+    from eaplan_drake.planning.risk import TotalDropTail
+    from eaplan_drake.planning.risk_margin import FaultModelFromParams
+
+    if not (isinstance(grid_size, int) and grid_size >= 2):
+        raise ValueError(f"grid_size: must be an integer >= 2, got {grid_size!r}")
+    coverage = scenario.coverage
+    lo, hi = (float(v) for v in scenario.planner.path_parameter_bounds)
+    table = LoadComputationTable(scenario.computation.table)
+    model = FaultModelFromParams(scenario.planner.fault_model)
+    eps = float(scenario.planner.risk)
+    lower, span = np.asarray(table.lower), np.asarray(table.upper) - np.asarray(table.lower)
+    reserve = float(scenario.battery.reserve_soc)
+
+    def Tail(tau, margin):
+        return 1.0 if margin < 0.0 else float(TotalDropTail(model, tau, margin))
+
+    d = plan.choice.decomposition
+    lowest = None
+    best = None
+    tried = 0
+    for c1 in np.linspace(lo, hi, grid_size):
+        route = MakeRoute(
+            d, LineSpacing(coverage, c1), coverage.min_turning_radius,
+            min_line_length=4.0 * coverage.trigger_radius,
+        )  # fmt: skip
+        for c2 in itertools.product(*table.parameter_grids):
+            tried += 1
+            p = RoutePrediction(route, scenario, c2)
+            margin = p["final_soc"] - reserve
+            if lowest is None:  # c̲1, c̲2 come first
+                lowest = (p["time"], margin)
+            excess = max(0.0, Tail(p["time"], margin) - Tail(*lowest))
+            u2 = np.divide(np.asarray(c2) - lower, span, out=np.zeros_like(span), where=span > 0)
+            quality = 0.5 * (c1 - lo) / (hi - lo) + 0.5 * float(np.mean(u2)) if hi > lo else 0.0
+            if margin >= 0.0 and excess <= eps and (best is None or quality > best[0] + 1e-12):
+                best = (quality, float(c1), [float(v) for v in c2], route, p, margin, excess)
+    if best is None:
+        return {"feasible": False, "risk": eps, "plans_tried": tried}
+    quality, c1, c2, route, p, margin, excess = best
+    pnr = PointOfNoReturn(route, p, scenario)
+    if pnr is not None:
+        pnr["lon_lat"] = [float(v) for v in plan.field.frame.ToLonLat([pnr["position_m"]])[0]]
+    prediction = {k: v for k, v in p.items() if k != "soc_after_leg"}
+    return {
+        "feasible": True,
+        "path_parameter_c1": c1,
+        "computation_parameters": c2,
+        "quality": quality,
+        "prediction": prediction,
+        "margin": margin,
+        "excess_risk": excess,
+        "risk": eps,
+        "point_of_no_return": pnr,
+        "plans_tried": tried,
     }
 
 
@@ -207,7 +325,7 @@ def FormatFieldPlan(summary: dict) -> str:
         + (f" (c1 = {s['path_parameter_c1']:g} m²)" if "path_parameter_c1" in s else "")
         + f", {s['line_length_m']:.0f} m",
         f"turns           {s['turns']} (r >= {s['min_turning_radius_m']:.2f} m; {s['loops']} "
-        f"loops where lines are closer than 2 r_min), {s['turn_length_m']:.0f} m",
+        f"of three arcs where lines are closer than 2 r_min), {s['turn_length_m']:.0f} m",
         f"transits        {s['transits']} between cells, {s['transit_length_m']:.0f} m",
         f"path length     {s['path_length_m']:.0f} m",
     ]
@@ -236,6 +354,28 @@ def FormatFieldPlan(summary: dict) -> str:
                 if ok
                 else f"short by {r['margin_at_risk'] - r['margin']:.3f}"
             )
+        )
+    b = s.get("best_static_plan")
+    if b is not None and not b["feasible"]:
+        lines.append(
+            f"best plan       none of {b['plans_tried']} static plans fits at ε = {b['risk']:g}"
+        )
+    elif b is not None:
+        e = b["prediction"]
+        c2 = ", ".join(f"{v:g}" for v in b["computation_parameters"])
+        lines.append(
+            f"best plan       c1 = {b['path_parameter_c1']:g} m², c2 = {c2} (quality "
+            f"{b['quality']:.3f}): {e['time']:.0f} s, {e['energy'] / 1e3:.1f} kJ, SoC "
+            f"{e['final_soc']:.3f} (margin {b['margin']:+.3f}), excess risk {b['excess_risk']:.3f}"
+            f" <= ε = {b['risk']:g}; the highest-quality static plan of {b['plans_tried']}"
+        )
+        pnr = b["point_of_no_return"]
+        lines.append(
+            "no return       home stays within reach from the whole route"
+            if pnr is None
+            else f"no return       after {pnr['time_s']:.0f} s (leg {pnr['leg']}, lon "
+            f"{pnr['lon_lat'][0]:.6f}, lat {pnr['lon_lat'][1]:.6f}): from there home is "
+            "beyond the reserve"
         )
     return "\n".join(lines)
 

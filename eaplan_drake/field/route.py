@@ -109,7 +109,8 @@ class Route:
 
     @property
     def loops(self) -> int:
-        """Turns flown as Ω turns (the two lines closer than 2 r_min): their middle arcs."""
+        """Turns of three arcs (between lines closer than 2 r_min): their middle arcs, longer
+        than a half circle."""
         return sum(1 for leg in self.legs if leg.kind == "turn" and leg.angle > math.pi + 1e-9)
 
 

@@ -36,8 +36,8 @@ being flown (or entered, on its transit) as it is and regenerates the later cell
 A stage's anchor is all the source needs to continue: (c1 of its cell, the cell's place in the
 visiting order, the cell's orientation 0–3, the leg's place in its cell) on a cell, (c1, the
 piece, 0, −1) on the approach, (c1 of the next cell, the transit's start x, y [m], a tag of the
-cell, the piece and the heading) on a transit (:meth:`FieldCoverage._TransitStages`); + 0.5 on
-the second half of a split arc.
+cell, the piece and the heading: −2 − 2(8 k + 2 m + s) for piece m into the cell at place k,
+heading ±u(θ)) on a transit; + 0.5 on the second half of a split arc.
 
 Lengths in m, angles in rad, c1 in m².
 """
