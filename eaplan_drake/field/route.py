@@ -269,8 +269,8 @@ def _BandExtent(ring: np.ndarray, lo: float, hi: float) -> tuple[float, float]:
 def CellSweepLines(cell, theta_deg: float, spacing: float, min_length: float = 0.0) -> list:
     """The survey lines of ``cell`` (:func:`~eaplan_drake.field.decompose.SweepLines`), each
     run over the cell's extent within its swath band y' ± x_d/2 (as the paper's lines are), so
-    that its swath also covers the corners at slanted edges; by at most x_d beyond the chord at
-    either end. Lines shorter than ``min_length`` [m] (slivers in sharp corners, too short to
+    that its swath also covers the corners at slanted edges (a line's points stay within x_d/2
+    of the cell). Lines shorter than ``min_length`` [m] (slivers in sharp corners, too short to
     sequence: the sequencer needs 4 ε between triggering points) are left out."""
     R = _Rotation(theta_deg)
     ring = np.asarray(cell.vertices) @ R.T
@@ -279,8 +279,7 @@ def CellSweepLines(cell, theta_deg: float, spacing: float, min_length: float = 0
     for ln in SweepLines(cell, theta_deg, spacing):
         (x0, y), (x1, _) = ln @ R.T
         lo, hi = _BandExtent(ring, max(y - h, cell.bottom), min(y + h, cell.top))
-        a, b = min(x0, x1), max(x0, x1)
-        a, b = max(lo, a - spacing), min(hi, b + spacing)
+        a, b = min(min(x0, x1), lo), max(max(x0, x1), hi)
         seg = np.array([[a, y], [b, y]]) if x0 <= x1 else np.array([[b, y], [a, y]])
         if b - a >= min_length:
             lines.append(seg @ R)
