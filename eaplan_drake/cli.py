@@ -92,8 +92,8 @@ def _FormatSummary(summary: dict) -> str:
                     "greedy_authors": "no NLP solved: the authors' rule tries every c2 of the "
                     "table",
                     "greedy": "no NLP solved: a one-step rule over the table's c2",
-                    "mpc": "no NLP solved: the lowest plan was not feasible at any step, so it "
-                    "was flown",
+                    "mpc": "no NLP solved: at every step the table's grid decided the plan "
+                    "without it, or the lowest plan was flown",
                 }.get(policy, "no NLP solved")
             )
         if infeasible:
