@@ -241,3 +241,19 @@ def test_a_random_field_is_flown_to_the_end_at_c1_0_in_still_air(randoms, seed):
     flight = FlyTracking(s, source, HI, t_max=1.5 * predicted + 120.0)
     assert flight["complete"]
     assert flight["t_end"] == pytest.approx(predicted, rel=0.05)
+
+
+@pytest.mark.slow
+def test_the_shipped_field_is_flown_with_the_default_planner():
+    """``simulate funen`` at the fast rates: the mpc policy completes the non-convex field with
+    its hole above the reserve, at a higher quality than the lowest plan's 0."""
+    from eaplan_drake.rates import WithRates
+    from eaplan_drake.simulation import Simulate
+
+    scenario = LoadNamedScenario("funen")
+    assert scenario.planner.policy == "mpc"
+    log = Simulate(WithRates(scenario, "fast"))
+    s = log.summary
+    assert s["completed"] and s["coverage_remaining"] == 0.0
+    assert s["final_margin"] > 0.0 and s["quality"] > 0.05
+    assert np.all(np.diff(log["stage"][:, 0]) >= 0.0)  # the stages follow each other
