@@ -14,8 +14,6 @@ Prints one row per field and a summary; writes the rows (JSON) whole or not at a
 """
 
 import argparse
-import json
-import math
 import sys
 import tempfile
 from pathlib import Path
@@ -24,32 +22,22 @@ import numpy as np
 
 from eaplan_drake.field.plan import LowestPlanEnergy  # noqa: E402
 from eaplan_drake.field.random_fields import RandomField  # noqa: E402
+from eaplan_drake.field.readers import FieldGeoJsonText  # noqa: E402
 from eaplan_drake.field.source import FieldCoverage  # noqa: E402
 from eaplan_drake.files import AtomicWrite, StrictJson  # noqa: E402
-from eaplan_drake.flight.stages import APPROACH, ArcAngle  # noqa: E402
+from eaplan_drake.flight.stages import APPROACH  # noqa: E402
 from eaplan_drake.flight.tracking import FlyTracking  # noqa: E402
 from eaplan_drake.loading import LoadNamedScenario  # noqa: E402
 from eaplan_drake.params import Scenario  # noqa: E402
 from eaplan_drake.rates import WithRates  # noqa: E402
 from eaplan_drake.resolve import ResolveScenario  # noqa: E402
 from eaplan_drake.simulation import Simulate  # noqa: E402
+from eaplan_drake.studies.worlds import LowestPlan  # noqa: E402
 
 LO, HI = -1000.0, 0.0
 
 
-def _Points(stage, n=16):
-    if not stage.is_circle:
-        return np.linspace(stage.entry, stage.trigger, n)
-    o, r = stage.path.center, stage.path.radius
-    a0 = math.atan2(stage.entry[1] - o[1], stage.entry[0] - o[0])
-    sign = -1.0 if stage.path.s > 0 else 1.0
-    angles = a0 + sign * np.linspace(0.0, ArcAngle(stage.path, stage.entry, stage.trigger), n)
-    return o + r * np.column_stack((np.cos(angles), np.sin(angles)))
-
-
 def RandomRow(seed: int) -> dict:
-    import shapely
-
     field = RandomField(seed, holes=seed % 3)
     s = WithRates(Scenario(), "fast")
     s.wind.speed = 0.0
@@ -63,22 +51,12 @@ def RandomRow(seed: int) -> dict:
         c1_bounds=(LO, HI),
         initial_heading_deg=45.0,
     )
-    polygon = field.Polygon()
     stages = source.Stages(HI)
-    lines = [st for st in stages if st.primitive in (0, 2)]
-    swaths = shapely.union_all(
-        [
-            shapely.LineString([st.entry, st.trigger]).buffer(0.5 * s.coverage.swath_spacing)
-            for st in lines
-        ]
-    )
     out = {"line": 0.0, "turn": 0.0}
     for st in stages:
-        if st.primitive == APPROACH:
-            continue
-        d = max(polygon.distance(shapely.Point(p)) for p in _Points(st))
-        kind = "line" if st.primitive in (0, 2) else "turn"
-        out[kind] = max(out[kind], d)
+        if st.primitive != APPROACH:
+            kind = "line" if st.primitive in (0, 2) else "turn"
+            out[kind] = max(out[kind], source.DistanceOutside(st))
     approach = next(i for i, st in enumerate(stages) if st.primitive != APPROACH)
     predicted = source.CoverageTime(HI, s.vehicle.airspeed)
     flight = FlyTracking(s, source, HI, t_max=1.5 * predicted + 120.0)
@@ -86,8 +64,8 @@ def RandomRow(seed: int) -> dict:
         "field": f"random {seed}",
         "holes": len(field.holes),
         "cells": len(source.decomposition.cells),
-        "area_ha": polygon.area / 1e4,
-        "covered": swaths.intersection(polygon).area / polygon.area,
+        "area_ha": field.area / 1e4,
+        "covered": source.SwathCoverage(HI),
         "line_outside_m": out["line"],
         "turn_outside_m": out["turn"],
         "complete": flight["complete"],
@@ -99,10 +77,7 @@ def RandomRow(seed: int) -> dict:
 
 def PredictionRow(name: str, scenario) -> dict:
     scenario.wind.speed = 0.0
-    scenario.planner.policy = "static"
-    scenario.planner.initial_path_parameters = [LO]
-    scenario.computation.initial_parameters = [2.0]
-    scenario = WithRates(scenario, "fast")
+    scenario = WithRates(LowestPlan(scenario), "fast")
     resolved = ResolveScenario(scenario)
     predicted = LowestPlanEnergy(resolved.plan.plan, scenario)
     stages = resolved.plan.Stages(LO)
@@ -126,13 +101,6 @@ def PredictionRow(name: str, scenario) -> dict:
     }
 
 
-def _GeoJson(field) -> str:
-    rings = [field.ExteriorLonLat(), *field.HolesLonLat()]
-    return json.dumps(
-        {"type": "Polygon", "coordinates": [np.vstack((r, r[:1])).tolist() for r in rings]}
-    )
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fields", type=int, default=20)
@@ -153,7 +121,7 @@ def main(argv=None) -> int:
         cases = [("funen", LoadNamedScenario("funen"))]
         for seed in (0, 4, 8):
             path = Path(tmp) / f"random_{seed}.geojson"
-            path.write_text(_GeoJson(RandomField(seed, holes=seed % 3)))
+            path.write_text(FieldGeoJsonText(RandomField(seed, holes=seed % 3)))
             s = LoadNamedScenario("funen")
             s.coverage.field = str(path)
             cases.append((f"random {seed}", s))

@@ -13,7 +13,7 @@ pytest.importorskip("pyproj")
 from eaplan_drake.errors import ScenarioError  # noqa: E402
 from eaplan_drake.field.plan import LineSpacing, LowestPlanEnergy  # noqa: E402
 from eaplan_drake.field.random_fields import RandomField  # noqa: E402
-from eaplan_drake.field.readers import ReadField  # noqa: E402
+from eaplan_drake.field.readers import FieldGeoJsonText, ReadField  # noqa: E402
 from eaplan_drake.field.source import FieldCoverage, FieldPath  # noqa: E402
 from eaplan_drake.flight.stages import APPROACH, ArcAngle  # noqa: E402
 from eaplan_drake.loading import LoadNamedScenario  # noqa: E402
@@ -119,17 +119,6 @@ def test_a_replan_keeps_the_cell_being_flown_and_respaces_the_later_cells(funen)
     assert np.all(np.diff(times) >= 0.0) and times[-1] > times[0]
 
 
-def _Sampled(stage, n=24):
-    if not stage.is_circle:
-        return np.linspace(stage.entry, stage.trigger, n)
-    o, r = stage.path.center, stage.path.radius
-    a0 = math.atan2(stage.entry[1] - o[1], stage.entry[0] - o[0])
-    sign = -1.0 if stage.path.s > 0 else 1.0  # s = −1: counter-clockwise
-    arc = ArcAngle(stage.path, stage.entry, stage.trigger)
-    angles = a0 + sign * np.linspace(0.0, arc, n)
-    return o + r * np.column_stack((np.cos(angles), np.sin(angles)))
-
-
 @pytest.mark.parametrize("seed", RANDOM_SEEDS)
 def test_random_fields_are_covered_and_the_route_stays_near_them(seed):
     """At c1 = 0 the swaths (x_d wide along the lines) cover ≥ 99 % of the field; lines stay
@@ -138,18 +127,9 @@ def test_random_fields_are_covered_and_the_route_stays_near_them(seed):
     field = RandomField(seed, holes=seed % 3)
     source = _Source(field, HI)
     coverage = Scenario().coverage
-    polygon = field.Polygon()
-    stages = source.Stages(HI)
-    swaths = shapely.union_all(
-        [
-            shapely.LineString([s.entry, s.trigger]).buffer(0.5 * coverage.swath_spacing + 1e-6)
-            for s in stages
-            if s.primitive in (0, 2)  # the survey lines only
-        ]
-    )
-    assert swaths.intersection(polygon).area >= 0.99 * polygon.area
-    for s in stages[1:]:
-        d = max(polygon.distance(shapely.Point(p)) for p in _Sampled(s))
+    assert source.SwathCoverage(HI) >= 0.99
+    for s in source.Stages(HI)[1:]:
+        d = source.DistanceOutside(s, step=1.0)
         if s.primitive in (0, 2):
             assert d <= 0.5 * coverage.swath_spacing + 1e-6
         elif s.primitive != APPROACH:
@@ -181,17 +161,15 @@ def test_a_field_scenario_resolves_and_bad_fields_are_one_line(tmp_path):
 
 
 def _LowestFlight(scenario, approach_stages: int):
-    """The static lowest plan flown at the fast rates in still air: (summary, the time [s] and
-    SoC at the end of the approach, its first ``approach_stages`` stages)."""
+    """The static lowest plan (:func:`~eaplan_drake.studies.worlds.LowestPlan`) flown at the
+    fast rates in still air: (summary, the time [s] and SoC at the end of the approach, its
+    first ``approach_stages`` stages)."""
     from eaplan_drake.rates import WithRates
     from eaplan_drake.simulation import Simulate
+    from eaplan_drake.studies.worlds import LowestPlan
 
     scenario.wind.speed = 0.0
-    scenario.planner.policy = "static"
-    scenario.planner.initial_path_parameters = [LO]
-    scenario.computation.initial_parameters = [2.0]
-    scenario = WithRates(scenario, "fast")
-    result = Simulate(scenario)
+    result = Simulate(WithRates(LowestPlan(scenario), "fast"))
     t, stage, soc = result.times, result["stage"][:, 0], result["soc"][:, 0]
     k = int(np.argmax(stage > approach_stages - 0.5))
     return result.summary, t[k], soc[k]
@@ -206,7 +184,7 @@ def test_the_pre_flight_plan_predicts_the_flown_lowest_plan(tmp_path, which, ran
     if which != "funen":
         field = RandomField(which, holes=which % 3)
         path = tmp_path / "field.geojson"
-        path.write_text(_GeoJson(field))
+        path.write_text(FieldGeoJsonText(field))
         scenario.coverage.field = str(path)
     resolved = ResolveScenario(scenario)
     predicted = LowestPlanEnergy(resolved.plan.plan, scenario)
@@ -218,14 +196,6 @@ def test_the_pre_flight_plan_predicts_the_flown_lowest_plan(tmp_path, which, ran
     assert flown == pytest.approx(predicted["time"], rel=0.02)
     drop = predicted["initial_soc"] - predicted["final_soc"]
     assert soc0 - summary["final_soc"] == pytest.approx(drop, abs=0.01)
-
-
-def _GeoJson(field) -> str:
-    import json
-
-    rings = [field.ExteriorLonLat(), *field.HolesLonLat()]
-    closed = [np.vstack((r, r[:1])).tolist() for r in rings]
-    return json.dumps({"type": "Polygon", "coordinates": closed})
 
 
 @pytest.mark.slow

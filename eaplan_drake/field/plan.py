@@ -114,17 +114,19 @@ def MakeFieldPlan(
     return best
 
 
-def RoutePrediction(route: Route, scenario, computation_parameters) -> dict:
+def RoutePrediction(route: Route, scenario, computation_parameters, *, table=None) -> dict:
     """Time [s], energy [J], mean power [W] and SoC of flying ``route`` in still air at the
     constant ``computation_parameters`` c2 with ``scenario``'s vehicle, computation table and
-    battery (see the module docstring); ``soc_after_leg`` is the SoC at the end of each leg."""
+    battery (see the module docstring); ``soc_after_leg`` is the SoC at the end of each leg.
+    ``table``: the scenario's computation table, if already loaded."""
     from eaplan_drake.energy.computation import LoadComputationTable
     from eaplan_drake.flight.plant import MotionPowerCoefficients
     from eaplan_drake.registry import BATTERY_MODELS
 
     vehicle = scenario.vehicle
     coefficients = MotionPowerCoefficients(vehicle.airspeed, vehicle.motion_power)
-    table = LoadComputationTable(scenario.computation.table)
+    if table is None:
+        table = LoadComputationTable(scenario.computation.table)
     c2 = [float(c) for c in computation_parameters]
     g = float(table.power(c2))
     time, energy, mean = RouteEnergy(route, vehicle.airspeed, coefficients, g)
@@ -155,7 +157,7 @@ def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
     from eaplan_drake.energy.computation import LoadComputationTable
 
     table = LoadComputationTable(scenario.computation.table)
-    prediction = RoutePrediction(plan.route, scenario, table.lower)
+    prediction = RoutePrediction(plan.route, scenario, table.lower, table=table)
     del prediction["soc_after_leg"]
     return prediction
 
@@ -227,7 +229,7 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
         )  # fmt: skip
         for c2 in itertools.product(*table.parameter_grids):
             tried += 1
-            p = RoutePrediction(route, scenario, c2)
+            p = RoutePrediction(route, scenario, c2, table=table)
             margin = p["final_soc"] - reserve
             if lowest is None:  # c̲1, c̲2 come first
                 lowest = (p["time"], margin)

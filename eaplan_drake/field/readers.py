@@ -40,6 +40,7 @@ __all__ = [
     "FIELD_SUFFIXES",
     "Field",
     "FieldError",
+    "FieldGeoJsonText",
     "FieldFromLocal",
     "FieldFromLonLat",
     "MAX_FIELD_BYTES",
@@ -245,6 +246,14 @@ def FieldFromLonLat(
         min_width=min_width,
         source=source or where,
     )
+
+
+def FieldGeoJsonText(field: Field) -> str:
+    """``field`` as a GeoJSON (RFC 7946) ``Polygon`` in WGS84 longitude/latitude, rings closed
+    and holes as interior rings: what :func:`ReadField` reads back."""
+    rings = [field.ExteriorLonLat(), *field.HolesLonLat()]
+    closed = [np.vstack((r, r[:1])).tolist() for r in rings]
+    return json.dumps({"type": "Polygon", "coordinates": closed})
 
 
 def ReadField(path, *, index: int | None = None, origin=None, min_width: float = 0.0) -> Field:

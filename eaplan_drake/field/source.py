@@ -46,6 +46,8 @@ import math
 
 import numpy as np
 
+from eaplan_drake.field.geodesy import Require
+from eaplan_drake.field.plan import LineSpacing, MakeFieldPlan
 from eaplan_drake.field.route import (
     CellLegs,
     CellSweepLines,
@@ -115,15 +117,12 @@ class FieldCoverage(PlanSource):
         initial_heading_deg: float = 0.0,
         cells: str = "best",
     ):
-        from eaplan_drake.field.plan import LineSpacing, MakeFieldPlan
-
         self.field = field
         self.r = float(coverage.turning_radius)
         self.r_min = float(coverage.min_turning_radius)
         self.min_leg = 4.0 * float(coverage.trigger_radius)
         self.k_e = float(k_e)
         self._coverage = coverage
-        self._spacing = LineSpacing
         self.start = np.array(start, dtype=float).reshape(2)
         psi = math.radians(float(initial_heading_deg))
         self.heading = np.array([math.cos(psi), math.sin(psi)])
@@ -146,7 +145,7 @@ class FieldCoverage(PlanSource):
 
     def Spacing(self, c1: float) -> float:
         """x_d(c1) [m] of the lines at c1."""
-        return float(self._spacing(self._coverage, c1))
+        return float(LineSpacing(self._coverage, c1))
 
     def _CellLines(self, place: int, c1: float, position, orientation=None, heading=None):
         """(orientation, legs) of the cell at ``place`` in the visiting order at c1, entered
@@ -157,6 +156,32 @@ class FieldCoverage(PlanSource):
         jump = TurnJump(spacing, self.r_min)
         _, code, seq = OrderCellLines(lines, jump, position, orientation, heading, self.r_min)
         return code, CellLegs(seq, self.r_min, self.cell_order[place])
+
+    def SwathCoverage(self, c1: float) -> float:
+        """The fraction [0, 1] of the field's area that the swaths of the survey lines cover at
+        c1: each line's stage buffered by x_d(c1)/2 on either side."""
+        shapely = Require("shapely")
+        half = 0.5 * self.Spacing(c1)
+        swaths = shapely.union_all(
+            [
+                shapely.LineString([s.entry, s.trigger]).buffer(half)
+                for s in self.Stages(c1)
+                if s.primitive in (0, 2)
+            ]
+        )
+        polygon = self.field.Polygon()
+        return float(swaths.intersection(polygon).area / polygon.area)
+
+    def DistanceOutside(self, stage, step: float = 5.0) -> float:
+        """How far [m] the path of ``stage`` gets from the field (0 where it stays inside), its
+        points sampled every ≈ ``step`` [m] (:func:`~eaplan_drake.output.plot_math.StagePoints`,
+        lines cut into pieces of at most ``step``)."""
+        from eaplan_drake.output.plot_math import StagePoints
+
+        shapely = Require("shapely")
+        path = shapely.LineString(StagePoints(stage, step)).segmentize(step)
+        polygon = self.field.Polygon()
+        return max(float(polygon.distance(shapely.Point(p))) for p in path.coords)
 
     # -- stages ------------------------------------------------------------------------------------
 
