@@ -363,3 +363,20 @@ def test_worlds_needed():
     for eps in [0.01, 0.05, 0.1]:
         n = WorldsNeeded(eps)
         assert ClopperPearsonUpper(0, n) <= eps < ClopperPearsonUpper(0, n - 1)
+
+
+def test_irwin_hall_of_a_point_does_not_depend_on_the_points_beside_it():
+    # The planner evaluates the lowest plan's tail at one margin per step and the risk table on a
+    # grid of thousands: a point's value must be the same, bit for bit, in either batch (the padded
+    # evaluation sums each point's own n + 1 terms), also across the evaluation's chunks.
+    from eaplan_drake.planning.risk import _IrwinHallCdf
+
+    rng = np.random.default_rng(7)
+    count = rng.integers(1, 90, 5000)
+    x = rng.uniform(0.0, 1.0, count.size) * count
+    x[::11] = np.floor(x[::11])  # piece boundaries, t = 0
+    batch = _IrwinHallCdf(count, x)
+    single = np.array([_IrwinHallCdf(count[i : i + 1], x[i : i + 1])[0] for i in range(0, 5000, 7)])
+    assert np.array_equal(batch[::7], single)
+    exact = [IrwinHallExact(int(n), v) for n, v in zip(count[:40], x[:40], strict=True)]
+    np.testing.assert_allclose(batch[:40], exact, rtol=0, atol=1e-12)

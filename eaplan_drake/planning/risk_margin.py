@@ -80,6 +80,7 @@ def _Quadrature(panels: int = 4, order: int = 8) -> tuple[np.ndarray, np.ndarray
 
 
 _U, _W = _Quadrature()
+_ROW = np.arange(_U.size)
 _TINY = 1e-150
 """Probabilities below this are taken as 0 [-] (far below every tolerance here)."""
 _SEARCH = 32
@@ -143,6 +144,8 @@ class ExcessRiskTable:
         tau_0, m_0 = np.broadcast_arrays(
             np.asarray(lowest_time, dtype=float), np.asarray(lowest_margin, dtype=float)
         )
+        if tau_0.size == 1:
+            return np.asarray(TotalDropTail(self.model, tau_0, m_0)).reshape(tau_0.shape)
         pairs, inverse = np.unique(
             np.stack([tau_0.ravel(), m_0.ravel()]), axis=1, return_inverse=True
         )
@@ -189,8 +192,10 @@ class ExcessRiskTable:
         n = self._CountsFor(mean_p, lam * tau_0)
         mixed = self._Mixed(float(tau_0), n)  # (U, K): G_u on the margin grid
         margin = _U * np.asarray(m_p)[..., None] + (1.0 - _U) * np.asarray(m_0)[..., None]
-        index = np.floor(np.clip(margin, 0.0, 1.0) / self.step).astype(int)
-        tail = np.where(margin < 0.0, 1.0, mixed[np.arange(_U.size), index])  # (..., U)
+        # the grid point at or below each margin (truncation is the floor of these m >= 0), read
+        # from the flattened (U, K) table
+        index = (np.clip(margin, 0.0, 1.0) / self.step).astype(int) + _ROW * mixed.shape[1]
+        tail = np.where(margin < 0.0, 1.0, np.take(mixed, index))  # (..., U)
         density = mean_p[..., None] * np.exp(-mean_p[..., None] * _U)
         return np.sum(_W * density * tail, axis=-1) + np.exp(-mean_p) * (np.asarray(m_p) < 0.0)
 
@@ -216,14 +221,15 @@ class ExcessRiskTable:
             return np.zeros_like(tau_p)
         lo = np.zeros_like(tau_p)
         width = np.full_like(tau_p, m_0)
-        shape = (tau_p.size, _SEARCH + 1)
-        tau_0, lowest = np.full(shape, float(lowest_time)), np.full(shape, m_0)
+        # the exposure of a plan is the same for all its trial margins: its density over the
+        # quadrature's u is computed once per plan (broadcast over the trials)
+        tau = tau_p[:, None]
+        tau_0, lowest = np.asarray(float(lowest_time)), np.asarray(m_0)
         fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
         if baseline_failure is not None:
             fail_0 = np.minimum(fail_0, float(baseline_failure))
         for stage in range(2):
             trial = lo[:, None] + width[:, None] * np.arange(_SEARCH + 1) / _SEARCH
-            tau = np.broadcast_to(tau_p[:, None], shape)
             ok = self._Excess(tau, trial, tau_0, lowest, fail_0) <= eps
             if stage == 0:
                 found = ok[:, -1]  # m_p = m_0 is within ε
