@@ -287,3 +287,24 @@ def test_a_decision_determined_without_a_solve_is_the_mapped_nlp_answer(table):
         assert (mapped.path_index, mapped.candidate_index) == (d.path_index, d.candidate_index)
         determined += 1
     assert determined >= 30 and undetermined >= 1, (determined, undetermined)
+
+
+def test_pchip_at_one_point_equals_the_array_evaluation():
+    from eaplan_drake.planning.relaxation import _Pchip, _PchipSlopes
+
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 5, 21):
+        x = np.sort(rng.uniform(0.0, 900.0, n))
+        y = np.cumsum(rng.uniform(0.0, 0.01, n))
+        d = _PchipSlopes(x, y)
+        t = np.concatenate((rng.uniform(-100.0, 1000.0, 200), x))
+        values, slopes = _Pchip(x, y, d, t)
+        for k, tk in enumerate(t):
+            value, slope = _Pchip(x, y, d, float(tk))
+            assert isinstance(value, float) and isinstance(slope, float)
+            assert value == pytest.approx(values[k], rel=1e-14, abs=1e-16)
+            assert slope == pytest.approx(slopes[k], rel=1e-12, abs=1e-15)
+        # exactly y at the nodes, constant with slope 0 beyond the ends
+        assert [_Pchip(x, y, d, float(v))[0] for v in x] == list(y)
+        assert _Pchip(x, y, d, float(x[0]) - 5.0) == (y[0], 0.0)
+        assert _Pchip(x, y, d, float(x[-1]) + 5.0) == (y[-1], 0.0)

@@ -193,6 +193,18 @@ class MissionProblem:
         self._best_cache: dict = {}
         self._row_values: dict = {}
         self._candidate_index: dict = {}
+        self._grid_rows: dict = {}
+        self._row_best: dict = {}
+        self._lowest_cache: dict = {}
+        self._margin_cache: dict = {}
+        self._margin_rows: dict = {}
+        self._recursive_cache: dict = {}
+        self._nodes = np.zeros(0)
+        lowest_row = self.candidates[self.lowest_candidate]
+        grids = table.parameter_grids
+        self._lowest_index = tuple(
+            int(np.flatnonzero(g == v)[0]) for g, v in zip(grids, lowest_row, strict=True)
+        )
         self._margin_floor = float(planner.margin_floor)
         self._fault_reserve = float(planner.fault_reserve)
         self._fault_time = float(planner.fault_reserve_time)
@@ -246,6 +258,11 @@ class MissionProblem:
         self._smooth_cache = {}
         self._row_cache = {}
         self._best_cache = {}
+        self._row_best = {}
+        self._lowest_cache = {}
+        self._margin_cache = {}
+        self._margin_rows = {}
+        self._recursive_cache = {}
         s_b = -float(self.battery_model.SocRateSlope(max(float(q[0]), 0.0)))
         sigma = math.sqrt(max(float(mean_power_variance), 0.0))
         p = self.params
@@ -355,21 +372,29 @@ class MissionProblem:
     def SocAt(self, power: float, t):
         """b(t; c2) [-] by linear interpolation of :meth:`SocCurve` (t in [0, n·h_T])."""
         soc = self.SocCurve(power)
-        nodes = np.arange(soc.size) * self.step
-        return np.interp(np.asarray(t, dtype=float), nodes, soc)
+        if self._nodes.size != soc.size:
+            self._nodes = np.arange(soc.size) * self.step
+        return np.interp(np.asarray(t, dtype=float), self._nodes, soc)
 
     def RecursiveSlack(self, power: float) -> float:
         """Left side minus right side of (2) [-] for the computation power ``power`` [W]."""
-        g_low = float(self.candidate_power[self.lowest_candidate])
-        h = self.step
-        t_low = float(self.t_rem[0])
-        b_low_end = float(self.SocAt(g_low, t_low))
+        key = (self._margin_rate, self._faults_counted)
+        low = self._recursive_cache.get(key)
+        if low is None:  # the lowest plan's terms, once per step and margin setting
+            g_low = float(self.candidate_power[self.lowest_candidate])
+            t_low = float(self.t_rem[0])
+            low = self._recursive_cache[key] = (
+                float(self.SocAt(g_low, self.step)),
+                float(self.SocAt(g_low, t_low)),
+                float(self.RecursiveMargin(t_low)),
+            )
+        b_low_next, b_low_end, margin = low
         return (
-            float(self.SocAt(power, h))
-            - float(self.SocAt(g_low, h))
+            float(self.SocAt(power, self.step))
+            - b_low_next
             + b_low_end
             - float(self.battery.reserve_soc)
-            - float(self.RecursiveMargin(t_low))
+            - margin
         )
 
     def FeasibleRow(self, power: float) -> tuple[np.ndarray, np.ndarray]:
@@ -380,7 +405,10 @@ class MissionProblem:
         row = self._row_cache.get(key)
         if row is None:
             end = self.SocAt(power, self.t_rem)
-            ok = (end >= float(self.battery.reserve_soc) + self.Margin(self.t_rem)) & ~self._beyond
+            margins = self._margin_rows.get(key[1:])
+            if margins is None:  # the same for every power: once per step and margin setting
+                margins = self._margin_rows[key[1:]] = self.Margin(self.t_rem)
+            ok = (end >= float(self.battery.reserve_soc) + margins) & ~self._beyond
             if self.RecursiveSlack(power) < 0.0:
                 ok = np.zeros_like(ok)
             row = self._row_cache[key] = (ok, end)
@@ -401,15 +429,30 @@ class MissionProblem:
             computation_parameters=np.asarray(c2, dtype=float).copy(),
             quality=self.Quality(j, u2),
             end_soc=float(end),
-            margin=float(self.Margin(self.t_rem[j])),
+            margin=self._MarginAt(int(j)),
             feasible=bool(feasible),
         )
 
+    def _MarginAt(self, j: int) -> float:
+        """m(t_rem(c1_j)) [-], computed once per step and margin setting."""
+        key = (j, self._margin_rate, self._faults_counted)
+        margin = self._margin_cache.get(key)
+        if margin is None:
+            margin = self._margin_cache[key] = float(self.Margin(self.t_rem[j]))
+        return margin
+
     def Lowest(self) -> MissionDecision:
-        """The lowest plan (c̲1, c̲2), with its feasibility."""
-        k = self.lowest_candidate
-        ok, end = self.FeasibleRow(float(self.candidate_power[k]))
-        return self._Decision(0, k, self.candidates[k], end[0], bool(ok[0]))
+        """The lowest plan (c̲1, c̲2), with its feasibility (computed once per step and margin
+        setting; the answer is shared, read only)."""
+        key = (self._margin_rate, self._faults_counted)
+        low = self._lowest_cache.get(key)
+        if low is None:
+            k = self.lowest_candidate
+            ok, end = self.FeasibleRow(float(self.candidate_power[k]))
+            low = self._lowest_cache[key] = self._Decision(
+                0, k, self.candidates[k], end[0], bool(ok[0])
+            )
+        return low
 
     def NominallyFeasible(self) -> bool:
         """The lowest plan ends above ``reserve_soc + margin_floor`` on the estimate (neither the
@@ -491,6 +534,8 @@ class MissionProblem:
         c_relaxed = self.lower + np.clip(np.asarray(u2_relaxed, float), 0.0, 1.0) * (
             self.upper - self.lower
         )
+        if self.integer:
+            return self._MapOnGrid(c_relaxed)
         brackets = []
         for grid, c in zip(self.table.parameter_grids, c_relaxed, strict=True):
             i = int(np.clip(np.searchsorted(grid, c - 1e-9), 0, grid.size - 1))
@@ -522,6 +567,66 @@ class MissionProblem:
         j, c2, end = best
         k = self._CandidateIndex(c2)
         return self._Decision(j, k, c2, end, True)
+
+    def _MapOnGrid(self, c_relaxed) -> MissionDecision:
+        """:meth:`MapRelaxed` of an integer table, on the grid's indices: the same candidates in
+        the same order, each row's best c1 computed once per step (:meth:`_GridBest`)."""
+        grids = self.table.parameter_grids
+        brackets = []
+        for grid, c in zip(grids, c_relaxed, strict=True):
+            i = int(np.clip(np.searchsorted(grid, c - 1e-9), 0, grid.size - 1))
+            brackets.append(sorted({max(i - 1, 0), i}))
+        best = self._GridBestOf([*itertools.product(*brackets), self._lowest_index])
+        # Local search from the rounded point: move c2 one grid step in any dimension (each
+        # with its largest feasible c1) while that improves the plan.
+        for _ in range(self.candidates.shape[0]):
+            neighbours = [
+                best[:d] + (i2,) + best[d + 1 :]
+                for d, grid in enumerate(grids)
+                for i2 in (best[d] - 1, best[d] + 1)
+                if 0 <= i2 < grid.size
+            ]
+            found = self._GridBestOf([best, *neighbours])
+            if found is None or found == best:
+                break
+            best = found
+        _, j, end = self._GridBest(best)
+        c2 = self._GridRow(best)[0]
+        return self._Decision(j, self._CandidateIndex(c2), c2, end, True)
+
+    def _GridRow(self, index: tuple[int, ...]) -> tuple[np.ndarray, float]:
+        """(c2 [table units], g(c2) [W]) of the grid point with these indices (kept)."""
+        row = self._grid_rows.get(index)
+        if row is None:
+            grids = self.table.parameter_grids
+            c2 = np.array([float(g[i]) for g, i in zip(grids, index, strict=True)])
+            row = self._grid_rows[index] = (c2, self._Row(c2)[0])
+        return row
+
+    def _GridBest(self, index: tuple[int, ...]):
+        """((quality, end SoC), j, end SoC) of the grid row's largest feasible c1_j, None if it
+        has none: :meth:`BestOf`'s ranking of one row, computed once per step."""
+        key = (index, self._margin_rate, self._faults_counted)
+        if key not in self._row_best:
+            c2, power = self._GridRow(index)
+            ok, end = self.FeasibleRow(power)
+            hits = np.flatnonzero(ok)
+            best = None
+            if hits.size:
+                j = int(hits[-1])
+                rank = (round(self.Quality(j, self._Row(c2)[1]), 12), float(end[j]))
+                best = (rank, j, float(end[j]))
+            self._row_best[key] = best
+        return self._row_best[key]
+
+    def _GridBestOf(self, indices):
+        """The first of the grid rows with the best :meth:`_GridBest` rank; None if none."""
+        best, best_rank = None, None
+        for index in indices:
+            found = self._GridBest(index)
+            if found is not None and (best_rank is None or found[0] > best_rank):
+                best, best_rank = index, found[0]
+        return best
 
     def DeterminedDecision(self) -> MissionDecision | None:
         """The answer of :meth:`MapRelaxed` when it does not depend on the relaxed c̃2, else None.

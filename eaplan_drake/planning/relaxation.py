@@ -3,6 +3,8 @@
 its smooth model is made of: the lower convex hull of the remaining-time staircase and monotone
 cubic Hermite (PCHIP, Fritsch–Carlson) interpolation."""
 
+import bisect
+
 import numpy as np
 from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.solvers import MathematicalProgram
@@ -32,6 +34,8 @@ def _LowerHull(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def _Pchip(x: np.ndarray, y: np.ndarray, d: np.ndarray, t) -> tuple[np.ndarray, np.ndarray]:
     """(value, slope) of the cubic Hermite interpolant of (x, y) with node slopes ``d`` at ``t``
     (an array or a scalar; constant beyond the ends, and exactly y at the nodes)."""
+    if np.ndim(t) == 0:
+        return _PchipAt(x, y, d, float(t))
     t = np.asarray(t, dtype=float)
     if x.size == 1:
         return np.full_like(t, y[0]), np.zeros_like(t)
@@ -47,6 +51,26 @@ def _Pchip(x: np.ndarray, y: np.ndarray, d: np.ndarray, t) -> tuple[np.ndarray, 
     slope = dh00 * y[i] + dh10 * h * d[i] + dh01 * y[i + 1] + dh11 * h * d[i + 1]
     inside = (t >= x[0]) & (t <= x[-1])
     return value, np.where(inside, slope, 0.0)
+
+
+def _PchipAt(x: np.ndarray, y: np.ndarray, d: np.ndarray, t: float) -> tuple[float, float]:
+    """:func:`_Pchip` at one point, in Python floats: the same operations in the same order
+    (the solver's constraints and the per-plan margins call it thousands of times a flight)."""
+    if x.size == 1:
+        return float(y[0]), 0.0
+    xs = x.tolist()
+    tc = min(max(t, xs[0]), xs[-1])
+    i = min(max(bisect.bisect_right(xs, tc) - 1, 0), len(xs) - 2)
+    y0, y1, d0, d1 = float(y[i]), float(y[i + 1]), float(d[i]), float(d[i + 1])
+    h = xs[i + 1] - xs[i]
+    s = (tc - xs[i]) / h
+    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+    value = h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1
+    dh00, dh10 = (6 * s**2 - 6 * s) / h, (3 * s**2 - 4 * s + 1) / h
+    dh01, dh11 = (-6 * s**2 + 6 * s) / h, (3 * s**2 - 2 * s) / h
+    slope = dh00 * y0 + dh10 * h * d0 + dh01 * y1 + dh11 * h * d1
+    return value, (slope if xs[0] <= t <= xs[-1] else 0.0)
 
 
 def _PchipSlopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
