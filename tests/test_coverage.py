@@ -384,3 +384,17 @@ def test_path_left_and_survey_fraction_on_a_line_and_a_circle(reference):
     assert SurveyFraction(turn1, None, rest, 0.0) == 0.0
     assert SurveyFraction(approach, None, 2.0 * total, total) == 1.0  # clipped to [0, 1]
     assert reference.RemainingFraction(reference.Stages(0.0), 1) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("wind", [(0.0, 0.0), (5.0, -3.0)])
+def test_time_after_is_the_sum_of_the_stage_times_after_every_stage(wind):
+    # TimeAfter shares the stage times of one repetition's rest between its stages: the result
+    # must be, bit for bit, the sum of StageTime over StagesAfter (the staircase the planner sees).
+    plan = _Zamboni()
+    for c1_flown in (0.0, -1000.0):
+        stages = plan.Stages(c1_flown)
+        for stage in stages[:-1]:
+            for c1 in (-1000.0, -430.0, 0.0):
+                rest = plan.StagesAfter(stage.index, stage.anchor, c1)
+                expected = float(sum(StageTime(s, V_A, np.array(wind)) for s in rest))
+                assert plan.TimeAfter(stage.index, stage.anchor, c1, V_A, wind) == expected

@@ -215,8 +215,13 @@ class PlanSource:
 
     @_Memoized(1024)
     def _CachedTimeAfter(self, index, anchor, c1, airspeed, wind) -> float:
+        return float(sum(self._StageTimesAfter(index, anchor, c1, airspeed, wind)))
+
+    def _StageTimesAfter(self, index, anchor, c1, airspeed, wind) -> tuple[float, ...]:
+        """StageTime [s] of each stage after stage ``index``, in order (arguments checked); a
+        subclass may share them between stages whose rests are suffixes of one another."""
         w = np.array(wind)
-        return float(sum(StageTime(s, airspeed, w) for s in self.StagesAfter(index, anchor, c1)))
+        return tuple(StageTime(s, airspeed, w) for s in self.StagesAfter(index, anchor, c1))
 
     def SurveyLengthAfter(self, index: int, anchor: tuple[float, ...], c1: float) -> float:
         """Survey length [m] of the stages after stage ``index`` (with its ``anchor``) when the
@@ -467,8 +472,28 @@ class ZamboniCoverage(PlanSource):
             eta_u = eta_d + 2.0 * self.r1
             reps = self._Reps(k + 1, eta_u - 2.0 * r2k, c1)
             return tuple(self._Build(reps, eta_u))
-        stages = self._Build(self._Reps(k, eta_d, c1), None)
-        return tuple(s for s in stages if s.index > index)
+        return tuple(s for s in self._RestFrom(k, eta_d, c1) if s.index > index)
+
+    def _StageTimesAfter(self, index, anchor, c1, airspeed, wind) -> tuple[float, ...]:
+        k, prim, eta_d, _ = anchor
+        k, prim = int(round(k)), int(round(prim))
+        if prim in (APPROACH, 3):
+            return super()._StageTimesAfter(index, anchor, c1, airspeed, wind)
+        rest = self._RestFrom(k, eta_d, c1)
+        times = self._RestTimes(k, eta_d, c1, airspeed, wind)
+        return tuple(t for s, t in zip(rest, times, strict=True) if s.index > index)
+
+    @_Memoized(64)
+    def _RestTimes(self, k, eta_d, c1, airspeed, wind) -> tuple[float, ...]:
+        """StageTime [s] of each stage of :meth:`_RestFrom` at ``airspeed`` in ``wind``."""
+        w = np.array(wind)
+        return tuple(StageTime(s, airspeed, w) for s in self._RestFrom(k, eta_d, c1))
+
+    @_Memoized(64)
+    def _RestFrom(self, k: int, eta_d: float, c1: float) -> tuple[Stage, ...]:
+        """The stages of repetitions k, k + 1, … with the first line at η_d [m] and c1 [m²]: the
+        same for every stage of repetition k but its second circle (built once for them)."""
+        return tuple(self._Build(self._Reps(k, eta_d, c1), None))
 
 
 def CoverageTime(

@@ -194,6 +194,7 @@ class StageSequencer(LeafSystem):
         self._num_primitives = int(getattr(plan, "num_primitives", NUM_PRIMITIVES))
         self._airspeed = float(plan.airspeed)
         self._wind = np.array(wind, dtype=float).reshape(2)
+        self._rest_key, self._rest = None, None
         if not (np.all(np.isfinite(self._wind)) and math.hypot(*self._wind) < self._airspeed):
             raise ValueError(
                 "StageSequencer.wind: need a finite wind below the plan's airspeed "
@@ -364,10 +365,17 @@ class StageSequencer(LeafSystem):
         if context.get_discrete_state(self._complete_index).GetAtIndex(0) > 0.5:
             output.SetFromVector(np.zeros(self._grid.size))
             return
-        stage = self.ActiveStage(context)
-        plan, v, w = self._plan, self._airspeed, self._wind
-        rest = np.array([plan.TimeAfter(stage.index, stage.anchor, c1, v, w) for c1 in self._grid])
-        output.SetFromVector(rest + mode.stage_left * StageTime(stage, v, w))
+        source = context.get_discrete_state(self._source_index).value()
+        stage = self._StageOf(source)
+        key = tuple(source.tolist())
+        if key != self._rest_key:  # the staircase after the active stage, once per stage
+            plan, v, w = self._plan, self._airspeed, self._wind
+            rest = np.array(
+                [plan.TimeAfter(stage.index, stage.anchor, c1, v, w) for c1 in self._grid]
+            )
+            self._rest_key, self._rest = key, (rest, StageTime(stage, v, w))
+        rest, stage_time = self._rest
+        output.SetFromVector(rest + mode.stage_left * stage_time)
 
     def _Update(self, context, discrete_state):
         # Drake fills discrete_state with the context's values before this handler
