@@ -1,13 +1,16 @@
 """Are the flights of this tree the same, bit for bit, as those of another tree?
 
     python3 benchmarks/flights_bit_for_bit.py --baseline-tree ../base [--flights plan_i,survey]
+        [--certify-worlds 20]
 
 flies each flight in a fresh process with this tree and with the baseline tree (a checkout of
 another version, e.g. ``git worktree add ../base <commit>``), saves every logged signal and the
 summary, and compares them with ``numpy.array_equal(..., equal_nan=True)``; summary fields that
 measure the machine (wall and solve times) are left out. Prints one line per flight and exits
 non-zero if any differs. The default flights: the four reference flights, the compare flights
-with the default planner, a greedy flight in wind and the shipped survey.
+with the default planner, a greedy flight in wind and the shipped survey; ``--certify-worlds N``
+adds the default policy's flights on the first N worlds that ``eaplan-drake certify survey`` draws
+(faults, noise, dropouts and wind: they exercise the risk reserve's every branch).
 """
 
 import argparse
@@ -40,7 +43,15 @@ except ImportError:  # a tree from before the package layout
     from eaplan_drake.simulation import LoadNamedScenario
 from eaplan_drake.simulation import Simulate
 name, out = sys.argv[1], sys.argv[2]
-log = Simulate(LoadNamedScenario(name, json.loads(sys.argv[3])))
+if name.startswith("certify:"):  # the policy flight of one world that certify draws
+    from eaplan_drake.studies.certify import CertifyStudy
+    from eaplan_drake.studies.sweep import StudyFlights
+    scenario_name, world = name.split(":")[1], int(name.split(":")[2])
+    flights = StudyFlights(CertifyStudy(scenario_name, world + 1))
+    scenario = next(s for k, s in flights if k["world"] == world and k["policy"] != "lowest")
+else:
+    scenario = LoadNamedScenario(name, json.loads(sys.argv[3]))
+log = Simulate(scenario)
 np.savez(out, times=log.times, summary=json.dumps(log.summary, default=str), **log.signals)
 """
 
@@ -93,12 +104,16 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--baseline-tree", required=True, type=Path)
     ap.add_argument("--flights", default=",".join(FLIGHTS), help="comma-separated names")
+    ap.add_argument("--certify-worlds", type=int, default=0, metavar="N")
     args = ap.parse_args()
     here = Path(__file__).resolve().parents[1]
+    flights = {name: FLIGHTS[name] for name in args.flights.split(",") if name}
+    flights.update(
+        {f"certify_{k}": (f"certify:survey:{k}", []) for k in range(args.certify_worlds)}
+    )
     same = True
     with tempfile.TemporaryDirectory() as tmp:
-        for name in args.flights.split(","):
-            scenario, overrides = FLIGHTS[name]
+        for name, (scenario, overrides) in flights.items():
             mine, theirs = Path(tmp) / f"{name}_this.npz", Path(tmp) / f"{name}_base.npz"
             _Fly(here, scenario, overrides, mine)
             _Fly(args.baseline_tree.resolve(), scenario, overrides, theirs)
