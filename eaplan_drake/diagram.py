@@ -82,6 +82,7 @@ LOGGED_SIGNALS = {
     "heading": ("plant", "heading"),
     "motion_power": ("plant", "motion_power"),
     "stage": ("sequencer", "stage"),
+    "flown_path_parameter": ("sequencer", "flown_path_parameter"),  # c1 of the plan flown [m²]
     "period": ("sequencer", "period"),
     "coverage_remaining": ("sequencer", "coverage_remaining"),
     "computation_power": ("computation", "power"),
@@ -105,6 +106,7 @@ LOG_SOURCES = {
     "position": ("plant", "kinematics", 0),
     "heading": ("plant", "kinematics", 2),
     "stage": ("sequencer", "mode", 0),
+    "flown_path_parameter": ("sequencer", "mode", 1),
     "coverage_remaining": ("sequencer", "mode", 2),
     "soc": ("battery", "state", 0),
 }

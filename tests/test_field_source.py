@@ -214,7 +214,7 @@ def test_a_random_field_is_flown_to_the_end_at_c1_0_in_still_air(randoms, seed):
 
 
 @pytest.mark.slow
-def test_the_shipped_field_is_flown_with_the_default_planner():
+def test_the_shipped_field_is_flown_with_the_default_planner(tmp_path):
     """``simulate funen`` at the fast rates: the mpc policy completes the non-convex field with
     its hole above the reserve, at a higher quality than the lowest plan's 0."""
     from eaplan_drake.rates import WithRates
@@ -227,3 +227,29 @@ def test_the_shipped_field_is_flown_with_the_default_planner():
     assert s["completed"] and s["coverage_remaining"] == 0.0
     assert s["final_margin"] > 0.0 and s["quality"] > 0.05
     assert np.all(np.diff(log["stage"][:, 0]) >= 0.0)  # the stages follow each other
+    # As flown: the stages replayed from the log are the plan's at the c1 each cell was flown
+    # with, and the missions written from them hold every line flown, in the flown order.
+    from eaplan_drake.field.readers import ReadField as Read
+    from eaplan_drake.field.source import MakeFieldPlanSource
+    from eaplan_drake.flight.coverage import FlownStages
+    from eaplan_drake.output.save import SaveFlownMissions
+
+    c1 = log["flown_path_parameter"][:, 0]
+    assert c1.min() < c1.max()  # the planner re-spaced some cells
+    plan = MakeFieldPlanSource(scenario, float(c1[0]))
+    stages = FlownStages(plan, log["stage"][:, 0], c1)
+    assert [st.index for st in stages] == sorted(set(log["stage"][:, 0].astype(int)))
+    route = plan.FlownRoute(stages)
+    flown = [plan.LegOf(st) for st in stages]
+    lines = [leg for leg in route.legs if leg.kind == "line"]
+    assert lines == [g for g in dict.fromkeys(flown) if g is not None and g.kind == "line"]
+    for st, leg in zip(stages, flown, strict=True):  # each line stage flies its route line
+        if leg is not None and leg.kind == "line":
+            assert st.entry == pytest.approx(leg.start, abs=1e-9)
+            assert st.trigger == pytest.approx(leg.end, abs=1e-9)
+    written = SaveFlownMissions(log, scenario, tmp_path)
+    assert sorted(p.name for p in written) == ["flown.plan", "flown.waypoints", "flown.xml"]
+    back = Read(str(tmp_path / "flown.plan"))  # the field as the geofence, read back
+    assert back.exterior.shape == plan.field.exterior.shape
+    with pytest.raises(ValueError, match="goes from stage"):
+        FlownStages(plan, [stages[0].index, stages[0].index + 5, 1], c1[:3])

@@ -52,6 +52,7 @@ from eaplan_drake.field.route import (
     CellLegs,
     CellSweepLines,
     OrderCellLines,
+    Route,
     TransitLegs,
     TurnJump,
 )
@@ -339,6 +340,41 @@ class FieldCoverage(PlanSource):
         nxt = (rest[-1].index if rest else index) + 1
         end, s = np.asarray(legs[-1].end), self._Side(legs[-1])
         return (*rest, *self._Cells(k + 1, c1, end, s, nxt))
+
+    # -- as flown ----------------------------------------------------------------------------------
+
+    def LegOf(self, stage: Stage):
+        """The route :class:`~eaplan_drake.field.route.Leg` a stage of this plan flies (both
+        halves of a split arc give the same leg); None for the approach."""
+        c1_a, a1, a2, j = stage.anchor
+        if -1.0 <= j < 0.0:
+            return None
+        if j < -1.0:  # transit piece m into the cell at place k
+            n = int(round((-2.0 - math.floor(j)) / 2.0))
+            k, m, s = n // 8, (n % 8) // 2, n % 2
+            return self._Transit(k, c1_a, np.array([a1, a2]), s)[2][m]
+        legs = self._CellLines(int(round(a1)), c1_a, None, int(round(a2)))[1]
+        return legs[int(math.floor(j))]
+
+    def FlownRoute(self, stages) -> Route:
+        """The route of the stages a flight flew
+        (:func:`~eaplan_drake.flight.coverage.FlownStages`): its lines, turns and transits as
+        flown, each cell at the spacing it was flown with (the route's ``spacing`` is the lowest
+        plan's). Missions are written from it as from the
+        pre-flight route (:func:`~eaplan_drake.field.missions.WriteMissions`)."""
+        legs, last = [], None
+        for stage in stages:
+            key = (*stage.anchor[:3], math.floor(stage.anchor[3]))
+            leg = None if key == last else self.LegOf(stage)
+            last = key
+            if leg is not None:
+                legs.append(leg)
+        return Route(
+            tuple(legs),
+            theta_deg=self.theta_deg,
+            spacing=self.plan.route.spacing,
+            min_turning_radius=self.r_min,
+        )
 
 
 def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:

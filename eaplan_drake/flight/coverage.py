@@ -82,6 +82,7 @@ __all__ = [
     "ZamboniCoverage",
     "CheckCoverageGeometry",
     "CoverageTime",
+    "FlownStages",
     "MakeCoveragePlan",
     "MakeZamboniPlanSource",
     "ScalingFactors",
@@ -262,6 +263,42 @@ class PlanSource:
         return SurveyFraction(
             stages[index], position, _SurveyLength(stages[index + 1 :]), self.SurveyLength(c1)
         )
+
+
+def FlownStages(plan: PlanSource, stage_index, flown_c1) -> tuple[Stage, ...]:
+    """The stages a flight flew, in order, from its log: the ``stage`` index and the
+    ``flown_path_parameter`` c1 [m²] the sequencer held at each sample. The first stage is
+    ``plan.Stages(c1)[0]`` at the first sample's c1; at each later index the sequencer's switches
+    are replayed, ``plan.StagesAfter(stage, c1)[0]`` at the c1 of the sample that shows the new
+    index (the log samples much faster than stages switch). ValueError when the log does not fit
+    the plan (an index that goes back, or beyond the plan's last stage)."""
+    index = np.asarray(stage_index, dtype=float).reshape(-1)
+    c1 = np.asarray(flown_c1, dtype=float).reshape(-1)
+    if index.size == 0 or index.size != c1.size:
+        raise ValueError(
+            f"flown stages: need as many c1 samples as stage samples (> 0), got {c1.size} and "
+            f"{index.size}"
+        )
+    changes = np.flatnonzero(np.diff(index)) + 1
+    stage = plan.Stages(float(c1[0]))[0]
+    flown = [stage]
+    if int(index[0]) != stage.index:
+        first = int(index[0])
+        raise ValueError(f"flown stages: the log starts at stage {first}, not {stage.index}")
+    for k in changes:
+        target, previous = int(index[k]), stage.index
+        while stage.index < target:
+            rest = plan.StagesAfter(stage.index, stage.anchor, float(c1[k]))
+            if not rest:
+                raise ValueError(f"flown stages: stage {target} is beyond the plan's last stage")
+            stage = rest[0]
+            flown.append(stage)
+        if stage.index != target:
+            raise ValueError(
+                f"flown stages: the log goes from stage {previous} to {target}, which the plan "
+                "does not have"
+            )
+    return tuple(flown)
 
 
 def _SurveyLength(stages) -> float:

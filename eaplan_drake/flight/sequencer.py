@@ -152,6 +152,7 @@ class StageSequencer(LeafSystem):
         - remaining_time
         - mission_complete
         - mode
+        - flown_path_parameter
     """
 
     def __init__(
@@ -269,6 +270,9 @@ class StageSequencer(LeafSystem):
             "mission_complete", self._complete_index
         )
         self._mode_port = self.DeclareStateOutputPort("mode", self._mode_index)
+        self._flown_c1_port = self.DeclareVectorOutputPort(
+            "flown_path_parameter", 1, _Mode("c1"), prerequisites_of_calc=xd
+        )
 
     # -- accessors -------------------------------------------------------------------------------
 

@@ -7,25 +7,56 @@ from eaplan_drake.flightlog import FlightLog
 from eaplan_drake.output.plots import SaveFlightPlots
 from eaplan_drake.params import CheckType, Scenario
 
-__all__ = ["SaveFlight"]
+__all__ = ["SaveFlight", "SaveFlownMissions"]
+
+FLOWN_ALTITUDE = 50.0
+"""Altitude above home [m] of the missions as flown (the simulation is planar)."""
 
 
 def SaveFlight(
     log: "FlightLog", scenario: Scenario, directory: str | Path, *, replay: bool = False
 ) -> list[Path]:
     """Writes a flight's result directory as a unit
-    (:func:`~eaplan_drake.files.ResultDirectory`): ``log.npz``, ``summary.json``, ``flight.png``
-    and, with ``replay``, the Meshcat replay ``replay.html``
-    (:func:`~eaplan_drake.output.replay.SaveFlightReplay`); returns the paths of the figure and
-    the replay."""
+    (:func:`~eaplan_drake.files.ResultDirectory`): ``log.npz``, ``summary.json``, ``flight.png``;
+    for a field (``coverage.field``) the missions as flown, ``flown.plan`` (QGroundControl),
+    ``flown.waypoints`` (WPL 110) and ``flown.xml`` (Paparazzi)
+    (:func:`SaveFlownMissions`); with ``replay``, the Meshcat replay ``replay.html``
+    (:func:`~eaplan_drake.output.replay.SaveFlightReplay`). Returns the paths of the figure, the
+    missions and the replay."""
     CheckType(log, FlightLog, "log", "a FlightLog (from Simulate)")
     CheckType(scenario, Scenario, "scenario", "a Scenario")
     final = Path(directory)
     with ResultDirectory(final) as tmp:
         log.Save(tmp)
         written = [SaveFlightPlots(log, scenario, tmp)]
+        if scenario.coverage.field:
+            written += SaveFlownMissions(log, scenario, tmp)
         if replay:
             from eaplan_drake.output.replay import SaveFlightReplay
 
             written.append(SaveFlightReplay(log, scenario, tmp / "replay.html"))
     return [final / f.name for f in written]
+
+
+def SaveFlownMissions(log: "FlightLog", scenario: Scenario, directory: str | Path) -> list[Path]:
+    """Writes the missions of a field flight as flown into ``directory``: the stages replayed
+    from the log (:func:`~eaplan_drake.flight.coverage.FlownStages`), their lines, turns and
+    transits (:meth:`~eaplan_drake.field.source.FieldCoverage.FlownRoute`), as ``flown.plan``,
+    ``flown.waypoints`` and ``flown.xml`` (:func:`~eaplan_drake.field.missions.WriteMissions`)
+    at :data:`FLOWN_ALTITUDE`, home at the start of the first line. Returns their paths."""
+    from eaplan_drake.field.missions import WriteMissions
+    from eaplan_drake.field.source import MakeFieldPlanSource
+    from eaplan_drake.flight.coverage import FlownStages
+
+    c1 = log.signals["flown_path_parameter"][:, 0]
+    plan = MakeFieldPlanSource(scenario, float(c1[0]))
+    route = plan.FlownRoute(FlownStages(plan, log.signals["stage"][:, 0], c1))
+    written = WriteMissions(
+        directory,
+        route,
+        plan.field,
+        altitude=FLOWN_ALTITUDE,
+        cruise_speed=scenario.vehicle.airspeed,
+        stem="flown",
+    )
+    return list(written.values())
