@@ -7,7 +7,7 @@ from eaplan_drake.flightlog import FlightLog
 from eaplan_drake.output.plots import SaveFlightPlots
 from eaplan_drake.params import CheckType, Scenario
 
-__all__ = ["SaveFlight", "SaveFlownMissions"]
+__all__ = ["FLOWN_ALTITUDE", "SaveFlight", "SaveFlownMissions"]
 
 FLOWN_ALTITUDE = 50.0
 """Altitude above home [m] of the missions as flown (the simulation is planar)."""
