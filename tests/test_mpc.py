@@ -289,6 +289,20 @@ def test_a_decision_determined_without_a_solve_is_the_mapped_nlp_answer(table):
     assert determined >= 30 and undetermined >= 1, (determined, undetermined)
 
 
+def test_the_free_response_of_fewer_points_is_read_from_the_longest_kept(table):
+    """The problem keeps the longest free-response rows of a period and reads the leading rows:
+    the predicted power is bit for bit that of the rows built for the step's own length."""
+    from eaplan_drake.energy.fourier import FreeResponseMatrix
+
+    pb = _Problem(table)
+    rng = np.random.default_rng(5)
+    q, var, soc, t_rem = _RandomState(rng)
+    for shrink in (0.0, 7.0, 30.0, 200.0):
+        pb.SetObservation(_Observation(q, var, soc, np.maximum(t_rem - shrink, 1.0)))
+        rows = FreeResponseMatrix(ORDER, PERIOD, 0.5 * pb.step, 2 * pb.n + 1)
+        assert np.array_equal(pb.f_half, rows @ q)
+
+
 def test_pchip_at_one_point_equals_the_array_evaluation():
     from eaplan_drake.planning.relaxation import _Pchip, _PchipSlopes
 

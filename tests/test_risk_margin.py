@@ -95,6 +95,44 @@ def test_the_required_margin_is_the_smallest_within_eps():
     )
 
 
+def _RequiredMarginReadingEveryTrial(table, times, tau_0, m_0, eps, baseline):
+    """m_req by the search of :meth:`ExcessRiskTable.RequiredMargin` reading all 33 trials of
+    each stage (the reference for its coarse-to-fine reading)."""
+    tau = np.asarray(times, dtype=float)[:, None]
+    lo, width = np.zeros(tau.shape[0]), np.full(tau.shape[0], m_0)
+    fail_0 = table.LowestFailure(tau_0, m_0)
+    if baseline is not None:
+        fail_0 = np.minimum(fail_0, baseline)
+    for stage in range(2):
+        trial = lo[:, None] + width[:, None] * np.arange(33) / 32
+        ok = table._Excess(tau, trial, np.asarray(tau_0), np.asarray(m_0), fail_0) <= eps
+        if stage == 0:
+            found = ok[:, -1]
+        first = np.where(ok.any(axis=1), np.argmax(ok, axis=1), 32)
+        hi = np.take_along_axis(trial, first[:, None], axis=1)[:, 0]
+        lo = np.where(first > 0, hi - width / 32, hi)
+        width = hi - lo
+    return np.where(found, hi, np.inf)
+
+
+@pytest.mark.parametrize("kind", sorted(MODELS))
+def test_the_coarse_to_fine_search_equals_reading_every_trial(kind):
+    """The search reads 12 of each stage's 33 trial margins (the excess falls as the margin
+    grows); on random states its m_req is bit for bit that of reading all 33."""
+    table = RiskTable(MODELS[kind], 1000.0)
+    rng = np.random.default_rng(7)
+    for _ in range(150):
+        tau_0 = rng.uniform(10.0, 500.0)
+        times = np.sort(tau_0 + rng.uniform(0.0, 400.0, 21))
+        times[0] = tau_0
+        m_0 = rng.uniform(0.001, 0.4)
+        eps = float(rng.choice([0.01, 0.025, 0.05, 0.2]))
+        baseline = None if rng.random() < 0.5 else float(rng.uniform(0.0, 0.3))
+        got = table.RequiredMargin(times, tau_0, m_0, eps, baseline)
+        want = _RequiredMarginReadingEveryTrial(table, times, tau_0, m_0, eps, baseline)
+        assert np.array_equal(got, want)
+
+
 def test_fault_model_params_build_each_size_distribution():
     assert FaultModelFromParams(FaultModelParams()) == FaultModel(0.003, UniformDrops(0.0, 0.15))
     exp = FaultModelFromParams(FaultModelParams(sizes="exponential", size_mean=0.05))

@@ -194,6 +194,8 @@ class MissionProblem(SmoothModel):
         self._candidate_index: dict = {}
         self._grid_rows: dict = {}
         self._row_best: dict = {}
+        self._climb_cache: dict = {}
+        self._option_brackets = None
         self._lowest_cache: dict = {}
         self._margin_cache: dict = {}
         self._margin_rows: dict = {}
@@ -245,11 +247,13 @@ class MissionProblem(SmoothModel):
         # (it is infeasible, below), and the free-response rows stay bounded in memory.
         n = max(2, min(math.ceil(float(np.max(self.t_rem)) / h), self._max_steps) + 2)
         self._beyond = self.t_rem > (n - 2) * h
-        key = (float(period), n)
-        if self._rows_key != key:  # a pure function of (T, n): cached
-            self._rows = FreeResponseMatrix(self.order, float(period), 0.5 * h, 2 * n + 1)
+        key = float(period)
+        if self._rows_key != key or self._rows.shape[0] < 2 * n + 1:
+            # a pure function of T: the rows of fewer points are the leading rows of more
+            # (FreeResponseMatrix stacks them by doubling), so the longest is kept
+            self._rows = FreeResponseMatrix(self.order, key, 0.5 * h, 2 * n + 1)
             self._rows_key = key
-        self.f_half = self._rows @ q
+        self.f_half = self._rows[: 2 * n + 1] @ q
         self.n = n
         self._hull = _LowerHull(self.u1, self.t_rem)
         self._slopes = _PchipSlopes(self.u1[self._hull], self.t_rem[self._hull])
@@ -258,6 +262,7 @@ class MissionProblem(SmoothModel):
         self._row_cache = {}
         self._best_cache = {}
         self._row_best = {}
+        self._climb_cache = {}
         self._lowest_cache = {}
         self._margin_cache = {}
         self._margin_rows = {}
@@ -530,9 +535,7 @@ class MissionProblem(SmoothModel):
         low = self.Lowest()
         if not low.feasible:
             return low
-        c_relaxed = self.lower + np.clip(np.asarray(u2_relaxed, float), 0.0, 1.0) * (
-            self.upper - self.lower
-        )
+        c_relaxed = self._Relaxed(u2_relaxed)
         if self.integer:
             return self._MapOnGrid(c_relaxed)
         brackets = []
@@ -567,17 +570,40 @@ class MissionProblem(SmoothModel):
         k = self._CandidateIndex(c2)
         return self._Decision(j, k, c2, end, True)
 
+    def _Relaxed(self, u2_relaxed) -> np.ndarray:
+        """c2 [table units] of the relaxed c̃2 (clipped to [0, 1])."""
+        return self.lower + np.clip(np.asarray(u2_relaxed, float), 0.0, 1.0) * (
+            self.upper - self.lower
+        )
+
     def _MapOnGrid(self, c_relaxed) -> MissionDecision:
         """:meth:`MapRelaxed` of an integer table, on the grid's indices: the same candidates in
         the same order, each row's best c1 computed once per step (:meth:`_GridBest`)."""
-        grids = self.table.parameter_grids
+        return self._GridDecision(self._Climb(self._BracketBest(self._Brackets(c_relaxed))))
+
+    def _Brackets(self, c_relaxed) -> tuple[tuple[int, ...], ...]:
+        """Per dimension, the indices of the grid points that bracket c_relaxed (the one at or
+        above it and the one below, or the first alone)."""
         brackets = []
-        for grid, c in zip(grids, c_relaxed, strict=True):
+        for grid, c in zip(self.table.parameter_grids, c_relaxed, strict=True):
             i = int(np.clip(np.searchsorted(grid, c - 1e-9), 0, grid.size - 1))
-            brackets.append(sorted({max(i - 1, 0), i}))
-        best = self._GridBestOf([*itertools.product(*brackets), self._lowest_index])
-        # Local search from the rounded point: move c2 one grid step in any dimension (each
-        # with its largest feasible c1) while that improves the plan.
+            brackets.append(tuple(sorted({max(i - 1, 0), i})))
+        return tuple(brackets)
+
+    def _BracketBest(self, brackets) -> tuple[int, ...] | None:
+        """The best of the bracketing grid rows and the lowest (:meth:`_GridBestOf`)."""
+        return self._GridBestOf([*itertools.product(*brackets), self._lowest_index])
+
+    def _Climb(self, best: tuple[int, ...]) -> tuple[int, ...]:
+        """The local search from the grid row ``best``: move c2 one grid step in any dimension
+        (each with its largest feasible c1) while that improves the plan. Every move raises the
+        rank strictly, so the end depends on the start only: computed once per step and margin
+        setting for each start."""
+        key = (best, self._margin_rate, self._faults_counted)
+        end = self._climb_cache.get(key)
+        if end is not None:
+            return end
+        grids = self.table.parameter_grids
         for _ in range(self.candidates.shape[0]):
             neighbours = [
                 best[:d] + (i2,) + best[d + 1 :]
@@ -589,8 +615,13 @@ class MissionProblem(SmoothModel):
             if found is None or found == best:
                 break
             best = found
-        _, j, end = self._GridBest(best)
-        c2 = self._GridRow(best)[0]
+        self._climb_cache[key] = best
+        return best
+
+    def _GridDecision(self, index: tuple[int, ...]) -> MissionDecision:
+        """The decision of the grid row with these indices at its largest feasible c1."""
+        _, j, end = self._GridBest(index)
+        c2 = self._GridRow(index)[0]
         return self._Decision(j, self._CandidateIndex(c2), c2, end, True)
 
     def _GridRow(self, index: tuple[int, ...]) -> tuple[np.ndarray, float]:
@@ -638,20 +669,26 @@ class MissionProblem(SmoothModel):
         """
         if not self.integer or not self.Lowest().feasible:
             return None
-        options = []
-        for grid, lo, span in zip(self.table.parameter_grids, self.lower, self.span, strict=True):
-            mids = 0.5 * (grid[:-1] + grid[1:])
-            options.append([0.0, *((mids - lo) / span)])
-        first = None
-        for u2 in itertools.product(*options):
-            d = self.MapRelaxed(np.array(u2))
-            if first is None:
-                first = d
-            elif d.path_index != first.path_index or not np.array_equal(
-                d.computation_parameters, first.computation_parameters
+        if self._option_brackets is None:  # they depend on the table only
+            options = []
+            for grid, lo, span in zip(
+                self.table.parameter_grids, self.lower, self.span, strict=True
             ):
+                mids = 0.5 * (grid[:-1] + grid[1:])
+                options.append([0.0, *((mids - lo) / span)])
+            self._option_brackets = tuple(
+                dict.fromkeys(
+                    self._Brackets(self._Relaxed(u2)) for u2 in itertools.product(*options)
+                )
+            )
+        first = None
+        for brackets in self._option_brackets:
+            best = self._Climb(self._BracketBest(brackets))
+            if first is None:
+                first = best
+            elif best != first:  # another row: another c2 (the grids ascend strictly)
                 return None
-        return first
+        return self._GridDecision(first)
 
     def KeepPathParameter(self, path_parameter: float) -> MissionDecision:
         """Failed-solve answer: c1 kept (the largest grid value not above it) with the best c2

@@ -85,6 +85,13 @@ _TINY = 1e-150
 """Probabilities below this are taken as 0 [-] (far below every tolerance here)."""
 _SEARCH = 32
 """Margins tried per bisection stage of :meth:`ExcessRiskTable.RequiredMargin`."""
+_COARSE = 4
+"""Every how many of them the coarse pass of :meth:`ExcessRiskTable._FirstWithin` reads."""
+
+
+def _Trials(lo: np.ndarray, width: np.ndarray, k) -> np.ndarray:
+    """The trial margins lo + width·k/32 [-] of each plan (rows) at the indices k."""
+    return lo[:, None] + width[:, None] * k / _SEARCH
 
 
 def FaultModelFromParams(params: FaultModelParams) -> FaultModel:
@@ -199,6 +206,20 @@ class ExcessRiskTable:
         density = mean_p[..., None] * np.exp(-mean_p[..., None] * _U)
         return np.sum(_W * density * tail, axis=-1) + np.exp(-mean_p) * (np.asarray(m_p) < 0.0)
 
+    def _FirstWithin(self, tau, lo, width, tau_0, m_0, fail_0, eps):
+        """(R ≤ ε at the last trial, the first of the trials m = lo + width·k/32, k = 0..32,
+        with R ≤ ε, 32 if none) per plan time. R falls as the margin grows, so the trials are
+        read coarse to fine: every 4th, then the 3 between the first within ε and the one
+        before it: the same answer as reading all 33, from 12 of them."""
+        coarse = np.arange(0, _SEARCH + 1, _COARSE)
+        ok = self._Excess(tau, _Trials(lo, width, coarse), tau_0, m_0, fail_0) <= eps
+        c = np.where(ok.any(axis=1), np.argmax(ok, axis=1), coarse.size - 1)
+        between = np.maximum(c - 1, 0)[:, None] * _COARSE + np.arange(1, _COARSE)
+        fine = self._Excess(tau, _Trials(lo, width, between), tau_0, m_0, fail_0) <= eps
+        first = np.where(fine.any(axis=1), between[:, 0] + np.argmax(fine, axis=1), c * _COARSE)
+        first = np.where((c == 0) | ~ok.any(axis=1), c * _COARSE, first)
+        return ok[:, -1], first
+
     def RequiredMargin(
         self,
         plan_time,
@@ -229,12 +250,10 @@ class ExcessRiskTable:
         if baseline_failure is not None:
             fail_0 = np.minimum(fail_0, float(baseline_failure))
         for stage in range(2):
-            trial = lo[:, None] + width[:, None] * np.arange(_SEARCH + 1) / _SEARCH
-            ok = self._Excess(tau, trial, tau_0, lowest, fail_0) <= eps
+            ok_top, first = self._FirstWithin(tau, lo, width, tau_0, lowest, fail_0, eps)
             if stage == 0:
-                found = ok[:, -1]  # m_p = m_0 is within ε
-            first = np.where(ok.any(axis=1), np.argmax(ok, axis=1), _SEARCH)
-            hi = np.take_along_axis(trial, first[:, None], axis=1)[:, 0]
+                found = ok_top  # m_p = m_0 is within ε
+            hi = lo + width * first / _SEARCH
             lo = np.where(first > 0, hi - width / _SEARCH, hi)
             width = hi - lo
         return np.where(found, hi, np.inf)
