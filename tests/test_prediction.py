@@ -46,6 +46,21 @@ def test_simpson_soc_exact_for_constant_and_accurate_for_periodic_load():
     assert abs(b[-1] - exact) < 1e-10
 
 
+def test_simpson_soc_from_half_samples_equals_the_three_row_form_bit_for_bit():
+    """SimpsonSoc evaluates ḃ once per half-step sample; the SoC is exactly that of
+    SimpsonSocSteps on StepLoads' start, middle and end rows (brown-out loads included)."""
+    battery = BatteryParams()
+    rng = np.random.default_rng(4)
+    for i in range(300):
+        n = int(rng.integers(1, 600))
+        shape = (2 * n + 1,) + ((int(rng.integers(1, 4)),) if i % 3 == 0 else ())
+        y = rng.uniform(-50.0, 400.0, shape)
+        y[int(rng.integers(0, 2 * n + 1))] = 1e9 if i % 5 == 0 else y[0]
+        soc0, h = rng.uniform(0.0, 1.0), rng.uniform(0.1, 3.0)
+        want = SimpsonSocSteps(StepLoads(y), soc0, battery, h)
+        assert np.array_equal(SimpsonSoc(y, soc0, battery, h), want)
+
+
 def test_simpson_soc_sensitivity_is_the_analytic_derivative():
     battery = BatteryParams()
     V, R = battery.voltage, battery.internal_resistance

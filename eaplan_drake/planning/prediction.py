@@ -105,8 +105,13 @@ def SimpsonSocSteps(
 
 def SimpsonSoc(y_half, soc0, battery: BatteryModel | BatteryParams, step: float) -> np.ndarray:
     """:func:`SimpsonSocSteps` for a load y sampled every step/2 (2n + 1 samples along axis 0,
-    y at t = 0, step/2, step, …) [W]: the SoC [-] at the n + 1 nodes."""
-    return SimpsonSocSteps(StepLoads(y_half), soc0, battery, step)
+    y at t = 0, step/2, step, …) [W]: the SoC [-] at the n + 1 nodes. A step's end sample is the
+    next one's start, so ḃ is evaluated once per sample (element-wise: the same values as on
+    :func:`StepLoads`' three rows)."""
+    bdot = np.asarray(AsBatteryModel(battery).SocRate(np.asarray(y_half, dtype=float)))
+    drop = step * (bdot[0:-2:2] + 4.0 * bdot[1:-1:2] + bdot[2::2]) / 6.0
+    zero = np.zeros((1,) + drop.shape[1:])
+    return soc0 + np.concatenate((zero, np.cumsum(drop, axis=0)))
 
 
 def SimpsonSocSensitivity(
