@@ -170,10 +170,11 @@ class ExcessRiskTable:
         )
         return self._Excess(tau_p, m_p, tau_0, m_0, self.LowestFailure(tau_0, m_0))
 
-    def _Excess(self, tau_p, m_p, tau_0, m_0, fail_0) -> np.ndarray:
-        """:meth:`Risk` of broadcast arrays, given the lowest plan's own P(F_0) ``fail_0``."""
+    def _Excess(self, tau_p, m_p, tau_0, m_0, fail_0, exposure=None) -> np.ndarray:
+        """:meth:`Risk` of broadcast arrays, given the lowest plan's own P(F_0) ``fail_0`` (and
+        the plans' :meth:`_Exposure` against a single τ_0)."""
         if tau_0.size and np.all(tau_0 == tau_0.flat[0]):
-            fail_p = self._PlanFailure(tau_p, m_p, float(tau_0.flat[0]), m_0)
+            fail_p = self._PlanFailure(tau_p, m_p, float(tau_0.flat[0]), m_0, exposure)
         else:  # one lowest plan per candidate
             fail_p = np.vectorize(self._PlanFailure)(tau_p, m_p, tau_0, m_0)
         ordered = (tau_p >= tau_0) & (m_p <= m_0)
@@ -190,32 +191,42 @@ class ExcessRiskTable:
             self._mixed_key = (tau_0, n)
         return self._mixed
 
-    def _PlanFailure(self, tau_p, m_p, tau_0: float, m_0) -> np.ndarray:
-        """P(F_p) (an upper bound) for plans against one lowest plan time τ_0: the drops after
-        the first one, G_u(m) = Σ_n Pois(n; Λ_0 (1 − u)) Q_(n+1)(m), tabulated once over the
-        margin grid for the quadrature's u, then read at M(u) for every plan."""
+    def _Exposure(self, tau_p, tau_0: float) -> tuple:
+        """What P(F_p) needs of the plans' times τ_p [s] alone, for every trial margin: Λ_p,
+        G_u on the margin grid (U, K), the quadrature weights times the first drop's density
+        Λ_p e^(−Λ_p u), and e^(−Λ_p)."""
         lam = self.model.rate
         mean_p = lam * np.asarray(tau_p, dtype=float)
         n = self._CountsFor(mean_p, lam * tau_0)
         mixed = self._Mixed(float(tau_0), n)  # (U, K): G_u on the margin grid
+        weighted = _W * (mean_p[..., None] * np.exp(-mean_p[..., None] * _U))
+        return mixed, weighted, np.exp(-mean_p)
+
+    def _PlanFailure(self, tau_p, m_p, tau_0: float, m_0, exposure=None) -> np.ndarray:
+        """P(F_p) (an upper bound) for plans against one lowest plan time τ_0: the drops after
+        the first one, G_u(m) = Σ_n Pois(n; Λ_0 (1 − u)) Q_(n+1)(m), tabulated once over the
+        margin grid for the quadrature's u, then read at M(u) for every plan. ``exposure``: the
+        plans' :meth:`_Exposure`, when the caller reads many margins of the same plans."""
+        mixed, weighted, none = exposure or self._Exposure(tau_p, tau_0)
         margin = _U * np.asarray(m_p)[..., None] + (1.0 - _U) * np.asarray(m_0)[..., None]
         # the grid point at or below each margin (truncation is the floor of these m >= 0), read
         # from the flattened (U, K) table
         index = (np.clip(margin, 0.0, 1.0) / self.step).astype(int) + _ROW * mixed.shape[1]
         tail = np.where(margin < 0.0, 1.0, np.take(mixed, index))  # (..., U)
-        density = mean_p[..., None] * np.exp(-mean_p[..., None] * _U)
-        return np.sum(_W * density * tail, axis=-1) + np.exp(-mean_p) * (np.asarray(m_p) < 0.0)
+        return np.sum(weighted * tail, axis=-1) + none * (np.asarray(m_p) < 0.0)
 
-    def _FirstWithin(self, tau, lo, width, tau_0, m_0, fail_0, eps):
+    def _FirstWithin(self, tau, lo, width, tau_0, m_0, fail_0, eps, exposure=None):
         """(R ≤ ε at the last trial, the first of the trials m = lo + width·k/32, k = 0..32,
         with R ≤ ε, 32 if none) per plan time. R falls as the margin grows, so the trials are
         read coarse to fine: every 4th, then the 3 between the first within ε and the one
         before it: the same answer as reading all 33, from 12 of them."""
         coarse = np.arange(0, _SEARCH + 1, _COARSE)
-        ok = self._Excess(tau, _Trials(lo, width, coarse), tau_0, m_0, fail_0) <= eps
+        trials = _Trials(lo, width, coarse)
+        ok = self._Excess(tau, trials, tau_0, m_0, fail_0, exposure) <= eps
         c = np.where(ok.any(axis=1), np.argmax(ok, axis=1), coarse.size - 1)
         between = np.maximum(c - 1, 0)[:, None] * _COARSE + np.arange(1, _COARSE)
-        fine = self._Excess(tau, _Trials(lo, width, between), tau_0, m_0, fail_0) <= eps
+        trials = _Trials(lo, width, between)
+        fine = self._Excess(tau, trials, tau_0, m_0, fail_0, exposure) <= eps
         first = np.where(fine.any(axis=1), between[:, 0] + np.argmax(fine, axis=1), c * _COARSE)
         first = np.where((c == 0) | ~ok.any(axis=1), c * _COARSE, first)
         return ok[:, -1], first
@@ -242,15 +253,16 @@ class ExcessRiskTable:
             return np.zeros_like(tau_p)
         lo = np.zeros_like(tau_p)
         width = np.full_like(tau_p, m_0)
-        # the exposure of a plan is the same for all its trial margins: its density over the
-        # quadrature's u is computed once per plan (broadcast over the trials)
+        # the exposure of a plan is the same for all its trial margins: computed once per plan
+        # (broadcast over the trials)
         tau = tau_p[:, None]
         tau_0, lowest = np.asarray(float(lowest_time)), np.asarray(m_0)
         fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
         if baseline_failure is not None:
             fail_0 = np.minimum(fail_0, float(baseline_failure))
+        exposure = self._Exposure(tau, float(tau_0))
         for stage in range(2):
-            ok_top, first = self._FirstWithin(tau, lo, width, tau_0, lowest, fail_0, eps)
+            ok_top, first = self._FirstWithin(tau, lo, width, tau_0, lowest, fail_0, eps, exposure)
             if stage == 0:
                 found = ok_top  # m_p = m_0 is within ε
             hi = lo + width * first / _SEARCH
