@@ -103,7 +103,12 @@ from eaplan_drake.planning.prediction import (
     SimpsonSoc,
 )
 from eaplan_drake.planning.relaxation import _LowerHull, _Pchip, _PchipSlopes
-from eaplan_drake.planning.risk_margin import UNREACHABLE_MARGIN, FaultModelFromParams, RiskTable
+from eaplan_drake.planning.risk_margin import (
+    UNREACHABLE_MARGIN,
+    ExposureBucket,
+    FaultModelFromParams,
+    RiskTable,
+)
 from eaplan_drake.planning.smooth import SmoothModel
 
 __all__ = [
@@ -214,6 +219,7 @@ class MissionProblem(SmoothModel):
         self._fault_model = None
         if planner.reserve == "risk":
             self._fault_model = FaultModelFromParams(planner.fault_model)
+            self._risk_tables: dict = {}
             self._risk = float(planner.risk)
             self._risk_anchor = None
             self._risk_times = self._risk_margins = self._risk_slopes = np.zeros(1)
@@ -296,7 +302,10 @@ class MissionProblem(SmoothModel):
         )
         self.lowest_risk_state = (t_low, m_0)
         times = np.unique(np.minimum(self.t_rem, (self.n - 2) * self.step))
-        table = RiskTable(self._fault_model, float(times[-1]))
+        bucket = ExposureBucket(float(times[-1]))
+        table = self._risk_tables.get(bucket)
+        if table is None:  # RiskTable's own table for the bucket, kept (its cache key hashes)
+            table = self._risk_tables[bucket] = RiskTable(self._fault_model, bucket)
         baseline = None
         if self._risk_anchor is not None:
             tau_a, m_a = self._risk_anchor

@@ -62,7 +62,13 @@ from eaplan_drake.planning.risk import (
     UniformDrops,
 )
 
-__all__ = ["UNREACHABLE_MARGIN", "ExcessRiskTable", "FaultModelFromParams", "RiskTable"]
+__all__ = [
+    "UNREACHABLE_MARGIN",
+    "ExcessRiskTable",
+    "ExposureBucket",
+    "FaultModelFromParams",
+    "RiskTable",
+]
 
 UNREACHABLE_MARGIN = 0.01
 """How far above the lowest plan's margin m_0 [-] the mpc puts m_req of a plan that no margin
@@ -280,7 +286,13 @@ def RiskTable(model: FaultModel, exposure: float) -> ExcessRiskTable:
     """The :class:`ExcessRiskTable` of ``model`` for exposures up to ``exposure`` [s], built once
     per process for each power of two of seconds (at least 1024 s) and reused: a pure function of
     its arguments, so flights stay deterministic."""
+    return _CachedTable(model, ExposureBucket(exposure))
+
+
+def ExposureBucket(exposure: float) -> float:
+    """The exposure [s] :func:`RiskTable` builds its table for: the smallest power of two of
+    seconds, at least 1024 s, not below ``exposure``."""
     bucket = 1024.0
     while bucket < exposure:
         bucket *= 2.0
-    return _CachedTable(model, bucket)
+    return bucket
