@@ -156,6 +156,38 @@ def PoissonPmf(mean: np.ndarray, n_max: int) -> np.ndarray:
 def PoissonCutoff(mean: float) -> int:
     """Smallest n_max with P(N > n_max) < POISSON_TAIL for N ~ Poisson(mean), by the Chernoff bound
     P(N >= k) <= e^(-Λ) (eΛ/k)^k (k > Λ)."""
+    if type(mean) not in (float, np.float64) or not 0.0 < mean < _CUTOFF_MEANS:
+        return _PoissonCutoffArrays(mean)
+    mean = float(mean)
+    stop = int(mean + 20.0 * math.sqrt(mean) + 60.0)
+    logs = _LogCounts(stop)
+    base = 1.0 + math.log(mean)
+    # the bound of each k in turn from the first above the mean, as the arrays below compute it
+    for k in range(math.floor(mean) + 1, stop):
+        if -mean + k * (base - logs[k]) < _LOG_POISSON_TAIL:
+            return k - 1
+    return _PoissonCutoffArrays(mean)
+
+
+_CUTOFF_MEANS = 1e6
+"""Means :func:`PoissonCutoff` scans count by count (larger ones take the array form)."""
+
+_LOG_POISSON_TAIL = math.log(POISSON_TAIL)
+_LOG_COUNTS = [[0.0]]
+"""``np.log(k)`` at index k >= 1 as floats (index 0 unused), grown on demand."""
+
+
+def _LogCounts(stop: int) -> list[float]:
+    """At index k = 1..stop − 1 the value of k in ``np.log(np.arange(1, stop))``."""
+    logs = _LOG_COUNTS[0]
+    if len(logs) < stop:
+        size = max(stop, 2 * len(logs), 512)
+        logs = _LOG_COUNTS[0] = [0.0, *np.log(np.arange(1, size)).tolist()]
+    return logs
+
+
+def _PoissonCutoffArrays(mean: float) -> int:
+    """:func:`PoissonCutoff` over an array of counts (any mean it takes; errors as they come)."""
     if mean <= 0.0:
         return 0
     k = np.arange(1, int(mean + 20.0 * math.sqrt(mean) + 60.0))
@@ -396,6 +428,10 @@ def TotalDropTail(model: FaultModel, exposure, margin):
     """P(S(τ) > m): the probability that the drops during ``exposure`` τ [s] total more than
     ``margin`` m [-]. Broadcasts τ and m; exact to POISSON_TAIL (1e-12, from below); 1 for m < 0,
     0 for τ = 0 and m >= 0. ValueError if λτ > MAX_EXPECTED_DROPS."""
+    one = _OnePair(model, exposure, margin)
+    if one is not None:
+        tail, shape = one
+        return tail if shape == () else np.full(shape, tail)
     tau = _CheckArray("exposure", exposure, nonnegative=True, what="[s]")
     m = _CheckArray("margin", margin, nonnegative=False, what="(SoC fraction)")
     tau, m = np.broadcast_arrays(tau, m)
@@ -404,6 +440,94 @@ def TotalDropTail(model: FaultModel, exposure, margin):
     n_max = PoissonCutoff(float(np.max(expected, initial=0.0)))
     tail = np.sum(PoissonPmf(expected, n_max) * model.sizes.sum_tail(n_max, m), axis=-1)
     return _Out(np.where(m < 0.0, 1.0, np.clip(tail, 0.0, 1.0)))
+
+
+def _OneValue(value):
+    """(x, shape) if ``value`` is one float64 number (a float or an array of size 1), else None."""
+    kind = type(value)
+    if kind is float or kind is np.float64:
+        return float(value), ()
+    if kind is np.ndarray and value.size == 1 and value.dtype == np.float64:
+        return value.item(), value.shape
+    return None
+
+
+def _OnePair(model: FaultModel, exposure, margin):
+    """(tail, shape) of :func:`TotalDropTail` for one valid (τ, m) pair, else None (other inputs,
+    and bad ones, which take the array form and its errors). The same operations on the same
+    values as the array form: numpy's log and exp on arrays, each sum over the same terms."""
+    tau, m = _OneValue(exposure), _OneValue(margin)
+    if tau is None or m is None:
+        return None
+    (tau, tau_shape), (m, m_shape) = tau, m
+    expected = model.rate * tau
+    if not (0.0 <= tau < math.inf and -math.inf < m < math.inf and expected <= MAX_EXPECTED_DROPS):
+        return None
+    shape = tau_shape if len(tau_shape) >= len(m_shape) else m_shape
+    n_max = PoissonCutoff(expected)
+    if m < 0.0:
+        return 1.0, shape
+    if expected == 0.0:  # no drop: Q_0(m) = 0
+        return 0.0, shape
+    mean = np.array([expected])
+    pmf = np.exp(np.arange(n_max + 1) * np.log(mean) - mean - _LogFactorials(n_max))
+    if type(model.sizes) is UniformDrops:
+        q = _UniformTailAt(model.sizes, n_max, m)
+    else:
+        q = model.sizes.sum_tail(n_max, m)
+    tail = float(np.add.reduce(pmf * q))
+    return (0.0 if tail < 0.0 else 1.0 if tail > 1.0 else tail), shape
+
+
+def _UniformTailAt(sizes: UniformDrops, n_max: int, m: float) -> np.ndarray:
+    """``sizes.sum_tail(n_max, m)`` at one margin m >= 0, level by level."""
+    q = [0.0] * (n_max + 1)
+    levels, points = [], []
+    for n in range(1, n_max + 1):
+        x = (m - n * sizes.a) / (sizes.b - sizes.a)
+        if x <= 0.0:
+            q[n] = 1.0
+        elif x < n:
+            levels.append(n)
+            points.append(n - x)
+    if levels:
+        for n, value in zip(levels, _IrwinHallCdfAt(tuple(levels), points), strict=True):
+            q[n] = value
+    return np.array(q)
+
+
+def _IrwinHallCdfAt(levels: tuple[int, ...], points: list[float]) -> list:
+    """:func:`_IrwinHallCdf` of points at distinct levels (counts), its operations on each point's
+    own n + 1 terms: the terms of all points in one flat array, then one sum per point."""
+    point, i, rest, log_comb, spans = _FlatTerms(levels)
+    inner, rows, edges = [], [], []
+    for j, (n, x) in enumerate(zip(levels, points, strict=True)):
+        piece = min(math.floor(x), n - 1)
+        t = x - piece
+        rows.append(_BERNSTEIN[n][0][piece])
+        if t == 0.0 or t == 1.0:  # the basis is 0 or 1 there (no logarithm)
+            edges.append((spans[j], 0 if t == 0.0 else n))
+            t = 0.5
+        inner.append(t)
+    inner = np.array(inner)
+    basis = np.exp(log_comb + i * np.log(inner)[point] + rest * np.log1p(-inner)[point])
+    for span, one in edges:
+        basis[span] = i[span] == one
+    terms = np.concatenate(rows) * basis
+    return [np.add.reduce(terms[span]) for span in spans]
+
+
+@functools.lru_cache(maxsize=256)
+def _FlatTerms(levels: tuple[int, ...]):
+    """For :func:`_IrwinHallCdfAt` (growing the levels): per term its point, i, n − i and
+    log C(n, i); each point's slice of the terms."""
+    log_comb = np.concatenate([_Bernstein(n)[1] for n in levels])
+    i = np.concatenate([np.arange(n + 1) for n in levels])
+    rest = np.concatenate([n - np.arange(n + 1) for n in levels])
+    point = np.repeat(np.arange(len(levels)), [n + 1 for n in levels])
+    ends = np.cumsum([n + 1 for n in levels]).tolist()
+    spans = [slice(end - n - 1, end) for n, end in zip(levels, ends, strict=True)]
+    return point, i, rest, log_comb, spans
 
 
 def MarginAtRisk(model: FaultModel, exposure, eps: float, *, tolerance: float = 1e-10):
