@@ -386,6 +386,27 @@ def test_path_left_and_survey_fraction_on_a_line_and_a_circle(reference):
     assert reference.RemainingFraction(reference.Stages(0.0), 1) == pytest.approx(1.0)
 
 
+def test_rests_that_share_repetitions_equal_the_rests_of_a_fresh_plan():
+    """A rest rebuilt at a stage switch reuses the repetitions built before (each repetition is
+    built once per first line, c1 and previous second line): along a flight that changes c1
+    at several stages, every rest, its times and TimeAfter equal those of a plan built anew."""
+    plan = _Zamboni()
+    stages = plan.Stages(0.0)
+    i = 0
+    for c1 in (-1000.0, -430.0, 0.0, -1000.0, -700.0):
+        i = min(i + 3, len(stages) - 2)
+        stages = plan.Replan(stages, i, c1)
+        for j in range(i, len(stages) - 1):
+            stage = stages[j]
+            fresh = _Zamboni()
+            for c1_rest in (-1000.0, -430.0, 0.0):
+                rest = plan.StagesAfter(stage.index, stage.anchor, c1_rest)
+                assert rest == fresh.StagesAfter(stage.index, stage.anchor, c1_rest)
+                assert plan.TimeAfter(stage.index, stage.anchor, c1_rest, V_A, (4.0, 1.0)) == (
+                    float(sum(StageTime(s, V_A, np.array((4.0, 1.0))) for s in rest))
+                )
+
+
 @pytest.mark.parametrize("wind", [(0.0, 0.0), (5.0, -3.0)])
 def test_time_after_is_the_sum_of_the_stage_times_after_every_stage(wind):
     # TimeAfter shares the stage times of one repetition's rest between its stages: the result

@@ -426,55 +426,77 @@ class ZamboniCoverage(PlanSource):
 
     def _Build(self, reps: list, prev_eta_u) -> list[Stage]:
         """Stages of the repetitions ``reps``; ``prev_eta_u`` is the second line before them."""
-        poly, h, k_e = self.polygon, self.x_d / 2.0, self.k_e
         stages: list[Stage] = []
-        for idx, (k, eta_d, r2, c1) in enumerate(reps):
-            eta_u = eta_d + 2.0 * self.r1
-            lo_d, hi_d = poly.BandExtent(eta_d, h)
-            lo_u, hi_u = poly.BandExtent(eta_u, h)
-            if prev_eta_u is not None:
-                top_d = min(lo_d, poly.BandExtent(prev_eta_u, h)[0])
-            else:
-                top_d = lo_d
-            bottom = max(hi_d, hi_u)
-            top_u = lo_u
-            if r2 is not None:
-                eta_next = eta_u - 2.0 * r2
-                top_u = min(lo_u, poly.BandExtent(eta_next, h)[0])
-            W = poly.ToWorld
-            p_top_d = W(top_d, eta_d)
-            p_bot_d = W(bottom, eta_d)
-            p_bot_u = W(bottom, eta_u)
-            p_top_u = W(top_u, eta_u)
-            anchor_r2 = 0.0 if r2 is None else r2
-            base = 1 + NUM_PRIMITIVES * k
-            line_d = Line(p_top_d, poly.e2, s=1.0, k_e=k_e)  # travels along e1
-            circle1 = Circle(W(bottom, eta_d + self.r1), self.r1, s=-1.0, k_e=k_e)
-            line_u = Line(p_top_u, poly.e2, s=-1.0, k_e=k_e)  # travels along −e1
-            items = [
-                (line_d, p_bot_d, 0, p_top_d, bottom - top_d),
-                (circle1, p_bot_u, 1, p_bot_d, math.pi * self.r1),
-                (line_u, p_top_u, 2, p_bot_u, bottom - top_u),
-            ]
-            if r2 is not None:
-                circle2 = Circle(W(top_u, eta_u - r2), r2, s=-1.0, k_e=k_e)
-                items.append((circle2, W(top_u, eta_u - 2.0 * r2), 3, p_top_u, math.pi * r2))
-            for path, trig, prim, entry, length in items:
-                stages.append(
-                    Stage(
-                        index=base + prim,
-                        path=path,
-                        trigger=(float(trig[0]), float(trig[1])),
-                        primitive=prim,
-                        c1=float(c1),
-                        entry=(float(entry[0]), float(entry[1])),
-                        length=float(length),
-                        anchor=(float(k), float(prim), float(eta_d), float(anchor_r2)),
-                    )
-                )
-            prev_eta_u = eta_u
-            del idx
+        for k, eta_d, r2, c1 in reps:
+            stages.extend(self._RepStages(k, eta_d, r2, c1, prev_eta_u))
+            prev_eta_u = eta_d + 2.0 * self.r1
         return stages
+
+    @_Memoized(4096)
+    def _RepStages(self, k: int, eta_d: float, r2, c1: float, prev_eta_u) -> tuple[Stage, ...]:
+        """The stages of repetition k with its first line at η_d [m] (r2 [m] of its second circle,
+        None for the last), after the second line at ``prev_eta_u`` [m] (None: the first). The
+        rest rebuilt at a stage switch shares every repetition but its first with the rest built
+        at the switch before, so each is built once."""
+        poly, h, k_e = self.polygon, self.x_d / 2.0, self.k_e
+        eta_u = eta_d + 2.0 * self.r1
+        lo_d, hi_d = poly.BandExtent(eta_d, h)
+        lo_u, hi_u = poly.BandExtent(eta_u, h)
+        if prev_eta_u is not None:
+            top_d = min(lo_d, poly.BandExtent(prev_eta_u, h)[0])
+        else:
+            top_d = lo_d
+        bottom = max(hi_d, hi_u)
+        top_u = lo_u
+        if r2 is not None:
+            eta_next = eta_u - 2.0 * r2
+            top_u = min(lo_u, poly.BandExtent(eta_next, h)[0])
+        W = poly.ToWorld
+        p_top_d = W(top_d, eta_d)
+        p_bot_d = W(bottom, eta_d)
+        p_bot_u = W(bottom, eta_u)
+        p_top_u = W(top_u, eta_u)
+        anchor_r2 = 0.0 if r2 is None else r2
+        base = 1 + NUM_PRIMITIVES * k
+        line_d = Line(p_top_d, poly.e2, s=1.0, k_e=k_e)  # travels along e1
+        circle1 = Circle(W(bottom, eta_d + self.r1), self.r1, s=-1.0, k_e=k_e)
+        line_u = Line(p_top_u, poly.e2, s=-1.0, k_e=k_e)  # travels along −e1
+        items = [
+            (line_d, p_bot_d, 0, p_top_d, bottom - top_d),
+            (circle1, p_bot_u, 1, p_bot_d, math.pi * self.r1),
+            (line_u, p_top_u, 2, p_bot_u, bottom - top_u),
+        ]
+        if r2 is not None:
+            circle2 = Circle(W(top_u, eta_u - r2), r2, s=-1.0, k_e=k_e)
+            items.append((circle2, W(top_u, eta_u - 2.0 * r2), 3, p_top_u, math.pi * r2))
+        return tuple(
+            Stage(
+                index=base + prim,
+                path=path,
+                trigger=(float(trig[0]), float(trig[1])),
+                primitive=prim,
+                c1=float(c1),
+                entry=(float(entry[0]), float(entry[1])),
+                length=float(length),
+                anchor=(float(k), float(prim), float(eta_d), float(anchor_r2)),
+            )
+            for path, trig, prim, entry, length in items
+        )
+
+    @_Memoized(4096)
+    def _RepTimes(self, k, eta_d, r2, c1, prev_eta_u, airspeed, wind) -> tuple[float, ...]:
+        """StageTime [s] of each stage of :meth:`_RepStages` at ``airspeed`` in ``wind``."""
+        w = np.array(wind)
+        stages = self._RepStages(k, eta_d, r2, c1, prev_eta_u)
+        return tuple(StageTime(s, airspeed, w) for s in stages)
+
+    def _BuildTimes(self, reps: list, prev_eta_u, airspeed, wind) -> tuple[float, ...]:
+        """StageTime [s] of each stage of :meth:`_Build` (the same arguments), in order."""
+        times: list[float] = []
+        for k, eta_d, r2, c1 in reps:
+            times.extend(self._RepTimes(k, eta_d, r2, c1, prev_eta_u, airspeed, wind))
+            prev_eta_u = eta_d + 2.0 * self.r1
+        return tuple(times)
 
     def _Stages(self, c1: float) -> tuple[Stage, ...]:
         """The whole plan at c1 (Alg. 1): approach, then the repetitions."""
@@ -512,10 +534,14 @@ class ZamboniCoverage(PlanSource):
         return tuple(s for s in self._RestFrom(k, eta_d, c1) if s.index > index)
 
     def _StageTimesAfter(self, index, anchor, c1, airspeed, wind) -> tuple[float, ...]:
-        k, prim, eta_d, _ = anchor
+        k, prim, eta_d, r2k = anchor
         k, prim = int(round(k)), int(round(prim))
-        if prim in (APPROACH, 3):
+        if prim == APPROACH:
             return super()._StageTimesAfter(index, anchor, c1, airspeed, wind)
+        if prim == 3:  # the stages of :meth:`_StagesAfter`, timed per repetition
+            eta_u = eta_d + 2.0 * self.r1
+            reps = self._Reps(k + 1, eta_u - 2.0 * r2k, c1)
+            return self._BuildTimes(reps, eta_u, airspeed, wind)
         rest = self._RestFrom(k, eta_d, c1)
         times = self._RestTimes(k, eta_d, c1, airspeed, wind)
         return tuple(t for s, t in zip(rest, times, strict=True) if s.index > index)
@@ -523,8 +549,7 @@ class ZamboniCoverage(PlanSource):
     @_Memoized(64)
     def _RestTimes(self, k, eta_d, c1, airspeed, wind) -> tuple[float, ...]:
         """StageTime [s] of each stage of :meth:`_RestFrom` at ``airspeed`` in ``wind``."""
-        w = np.array(wind)
-        return tuple(StageTime(s, airspeed, w) for s in self._RestFrom(k, eta_d, c1))
+        return self._BuildTimes(self._Reps(k, eta_d, c1), None, airspeed, wind)
 
     @_Memoized(64)
     def _RestFrom(self, k: int, eta_d: float, c1: float) -> tuple[Stage, ...]:
