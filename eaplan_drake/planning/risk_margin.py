@@ -257,8 +257,6 @@ class ExcessRiskTable:
         m_0 = float(lowest_margin)
         if m_0 <= 0.0 or tau_p.size == 0:
             return np.zeros_like(tau_p)
-        lo = np.zeros_like(tau_p)
-        width = np.full_like(tau_p, m_0)
         # the exposure of a plan is the same for all its trial margins: computed once per plan
         # (broadcast over the trials)
         tau = tau_p[:, None]
@@ -266,15 +264,22 @@ class ExcessRiskTable:
         fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
         if baseline_failure is not None:
             fail_0 = np.minimum(fail_0, float(baseline_failure))
-        exposure = self._Exposure(tau, float(tau_0))
-        for stage in range(2):
-            ok_top, first = self._FirstWithin(tau, lo, width, tau_0, lowest, fail_0, eps, exposure)
-            if stage == 0:
-                found = ok_top  # m_p = m_0 is within ε
-            hi = lo + width * first / _SEARCH
-            lo = np.where(first > 0, hi - width / _SEARCH, hi)
-            width = hi - lo
-        return np.where(found, hi, np.inf)
+        mixed, weighted, none = self._Exposure(tau, float(tau_0))
+        # R falls as the margin grows: a plan that even m_p = m_0 does not keep within ε keeps
+        # no margin within it (+inf, most plans late in a flight); the others are searched
+        lo, width = np.zeros_like(tau_p), np.full_like(tau_p, m_0)
+        top = _Trials(lo, width, np.array([_SEARCH]))
+        found = self._Excess(tau, top, tau_0, lowest, fail_0, (mixed, weighted, none))[:, 0] <= eps
+        rows = np.flatnonzero(found)
+        tau, lo, width = tau[rows], lo[rows], width[rows]
+        exposure = (mixed, weighted[rows], none[rows])
+        hi = np.full_like(tau_p, np.inf)
+        for _ in range(2 if rows.size else 0):
+            _, first = self._FirstWithin(tau, lo, width, tau_0, lowest, fail_0, eps, exposure)
+            hi[rows] = lo + width * first / _SEARCH
+            lo = np.where(first > 0, hi[rows] - width / _SEARCH, hi[rows])
+            width = hi[rows] - lo
+        return hi
 
 
 @functools.lru_cache(maxsize=16)
