@@ -23,6 +23,7 @@ from eaplan_drake.planning.prediction import (
     SimpsonSoc,
     SimpsonSocSensitivity,
     SimpsonSocSteps,
+    SimpsonSteps,
     StepLoads,
 )
 from eaplan_drake.planning.prediction import TimeToReserve as PureTimeToReserve
@@ -59,6 +60,12 @@ def test_simpson_soc_from_half_samples_equals_the_three_row_form_bit_for_bit():
         soc0, h = rng.uniform(0.0, 1.0), rng.uniform(0.1, 3.0)
         want = SimpsonSocSteps(StepLoads(y), soc0, battery, h)
         assert np.array_equal(SimpsonSoc(y, soc0, battery, h), want)
+        # the smooth model's node values and sensitivity, from the same per-sample evaluation
+        slope = SocDerivativeSlope(y, battery)
+        sensitivity = SimpsonSocSensitivity(StepLoads(y), battery, h)
+        assert np.array_equal(SimpsonSteps(slope, h), sensitivity)
+        assert np.array_equal(slope[0::2], SocDerivativeSlope(y[0::2], battery))
+        assert np.array_equal(SocDerivative(y, battery)[0::2], SocDerivative(y[0::2], battery))
 
 
 def test_simpson_soc_sensitivity_is_the_analytic_derivative():

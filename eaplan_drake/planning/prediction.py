@@ -48,7 +48,9 @@ __all__ = [
     "MAX_GRID_POINTS",
     "PowerSurrogate",
     "SimpsonSoc",
+    "SimpsonSocOfRates",
     "SimpsonSocSensitivity",
+    "SimpsonSteps",
     "SimpsonSocSteps",
     "StepLoads",
     "TimeToReserve",
@@ -109,7 +111,20 @@ def SimpsonSoc(y_half, soc0, battery: BatteryModel | BatteryParams, step: float)
     next one's start, so ḃ is evaluated once per sample (element-wise: the same values as on
     :func:`StepLoads`' three rows)."""
     bdot = np.asarray(AsBatteryModel(battery).SocRate(np.asarray(y_half, dtype=float)))
-    drop = step * (bdot[0:-2:2] + 4.0 * bdot[1:-1:2] + bdot[2::2]) / 6.0
+    return SimpsonSocOfRates(bdot, soc0, step)
+
+
+def SimpsonSteps(values_half, step: float) -> np.ndarray:
+    """step·(v⁰ + 4v^½ + v¹)/6 of each of the n steps [value·s] from samples every step/2 along
+    axis 0 (2n + 1 of them): Simpson's rule per step."""
+    v = values_half
+    return step * (v[0:-2:2] + 4.0 * v[1:-1:2] + v[2::2]) / 6.0
+
+
+def SimpsonSocOfRates(rate_half, soc0, step: float) -> np.ndarray:
+    """SoC [-] at the n + 1 nodes from b_0 = ``soc0`` and ḃ [1/s] sampled every step/2 along axis
+    0 (2n + 1 samples): :func:`SimpsonSoc` when the rates are already known."""
+    drop = SimpsonSteps(rate_half, step)
     zero = np.zeros((1,) + drop.shape[1:])
     return soc0 + np.concatenate((zero, np.cumsum(drop, axis=0)))
 

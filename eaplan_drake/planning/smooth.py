@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from eaplan_drake.planning.prediction import SimpsonSoc, SimpsonSocSensitivity, StepLoads
+from eaplan_drake.planning.prediction import SimpsonSocOfRates, SimpsonSteps
 
 __all__ = ["SmoothModel"]
 
@@ -38,21 +38,23 @@ class SmoothModel:
 
     def _SmoothNodes(self, power: float):
         """(b, ḃ, ∂b/∂g, ∂ḃ/∂g) at the nodes k·h_T under the held computation power ``power``
-        [W]: :func:`~eaplan_drake.planning.prediction.SimpsonSoc` and its sensitivity (cached per
-        power
-        for the step; unlike :meth:`SocCurve`, no −inf after a brown-out: the NLP needs a smooth
+        [W]: :func:`~eaplan_drake.planning.prediction.SimpsonSoc` and its sensitivity
+        (:func:`~eaplan_drake.planning.prediction.SimpsonSocSensitivity`), cached per power for
+        the step; unlike :meth:`SocCurve`, no −inf after a brown-out: the NLP needs a smooth
         model)."""
         key = float(power)
         nodes = self._smooth_cache.get(key)
         if nodes is None:
             y = self.f_half + (key - self.g_now)
-            sensitivity = SimpsonSocSensitivity(StepLoads(y), self.battery_model, self.step)
-            dsoc = np.concatenate(([0.0], np.cumsum(sensitivity)))
+            # ḃ and ∂ḃ/∂y once per sample (element-wise: the node values are every other one)
+            rate = np.asarray(self.battery_model.SocRate(y))
+            slope = np.asarray(self.battery_model.SocRateSlope(y))
+            dsoc = np.concatenate(([0.0], np.cumsum(SimpsonSteps(slope, self.step))))
             nodes = (
-                SimpsonSoc(y, self.soc0, self.battery_model, self.step),
-                np.asarray(self.battery_model.SocRate(y[0::2])),
+                SimpsonSocOfRates(rate, self.soc0, self.step),
+                rate[0::2],
                 dsoc,
-                np.asarray(self.battery_model.SocRateSlope(y[0::2])),
+                slope[0::2],
             )
             self._smooth_cache[key] = nodes
         return nodes
