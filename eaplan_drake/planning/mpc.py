@@ -103,7 +103,7 @@ from eaplan_drake.planning.prediction import (
     PowerSurrogate,
     SimpsonSoc,
 )
-from eaplan_drake.planning.relaxation import _LowerHull, _Pchip, _PchipSlopes
+from eaplan_drake.planning.relaxation import _Pchip, _PchipSlopes
 from eaplan_drake.planning.risk_margin import (
     UNREACHABLE_MARGIN,
     ExposureBucket,
@@ -207,6 +207,7 @@ class MissionProblem(GridSearch, SmoothModel):
         self._margin_rows: dict = {}
         self._recursive_cache: dict = {}
         self._nodes = np.zeros(0)
+        self._hull_slopes = None
         lowest_row = self.candidates[self.lowest_candidate]
         grids = table.parameter_grids
         self._lowest_index = tuple(
@@ -262,8 +263,7 @@ class MissionProblem(GridSearch, SmoothModel):
             self._rows_key = key
         self.f_half = self._rows[: 2 * n + 1] @ q
         self.n = n
-        self._hull = _LowerHull(self.u1, self.t_rem)
-        self._slopes = _PchipSlopes(self.u1[self._hull], self.t_rem[self._hull])
+        self._hull_slopes = None  # the NLP's T(c̃1), built when a solve first reads it
         self._cache = {}
         self._smooth_cache = {}
         self._row_cache = {}

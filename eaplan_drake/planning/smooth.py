@@ -8,26 +8,32 @@ import math
 import numpy as np
 
 from eaplan_drake.planning.prediction import SimpsonSocOfRates, SimpsonSteps
+from eaplan_drake.planning.relaxation import _LowerHull, _PchipSlopes
 
 __all__ = ["SmoothModel"]
 
 
 class SmoothModel:
     """The NLP's smooth model of one planner step; mixed into
-    :class:`~eaplan_drake.planning.mpc.MissionProblem`, whose step data it reads (u1, t_rem, the
-    hull and its slopes, f_half, g_now, soc0, the battery model and the step h_T)."""
+    :class:`~eaplan_drake.planning.mpc.MissionProblem`, whose step data it reads (u1 and t_rem,
+    whose lower convex hull it builds on first use in a step; f_half, g_now, soc0, the battery
+    model and the step h_T)."""
 
     def RemainingTime(self, u1: float) -> tuple[float, float]:
         """(T(c̃1), dT/dc̃1) [s] of the relaxation: the lower convex hull of the staircase
         (c̃1_j, t_rem_j) (the tightest convex under-estimate; its vertices are the ends of the
         staircase's plateaus), interpolated by a monotone C¹ cubic (PCHIP, Fritsch–Carlson)."""
-        u, t = self.u1[self._hull], self.t_rem[self._hull]
+        if self._hull_slopes is None:  # once per step, when the NLP first asks
+            hull = _LowerHull(self.u1, self.t_rem)
+            self._hull_slopes = (hull, _PchipSlopes(self.u1[hull], self.t_rem[hull]))
+        hull, slopes = self._hull_slopes
+        u, t = self.u1[hull], self.t_rem[hull]
         if u.size == 1:
             return float(t[0]), 0.0
         i = min(max(int(np.searchsorted(u, u1, side="right")) - 1, 0), u.size - 2)
         h = u[i + 1] - u[i]
         s = (u1 - u[i]) / h
-        d0, d1 = self._slopes[i], self._slopes[i + 1]
+        d0, d1 = slopes[i], slopes[i + 1]
         h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
         h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
         value = h00 * t[i] + h10 * h * d0 + h01 * t[i + 1] + h11 * h * d1
