@@ -1,11 +1,11 @@
 """Instructions per simulation step of a flight, counted by valgrind's callgrind: a speed measure
 that does not depend on the machine's load (a busy 2-core machine moves CPU times by ±20 %).
 
-Each count runs with ``PYTHONHASHSEED=0`` and, where ``setarch`` is installed (util-linux), with
-address-space randomisation off (``setarch -R``): the instance maps of pybind11 hash pointers, so
-with randomised addresses the count of one tree moved by ±1.5 % from run to run; without
-randomisation two runs of one tree agreed within 0.2 % (plan i, 85–89 s: 478.6k and 479.4k
-instructions per step).
+Each count runs with ``PYTHONHASHSEED=0``, one BLAS thread and, where ``setarch`` is installed
+(util-linux), with address-space randomisation off (``setarch -R``): the instance maps of
+pybind11 hash pointers, so with randomised addresses the count of one tree moved by ±1.5 % from
+run to run; without randomisation two runs of one tree agreed within 0.2 % (plan i, 85–89 s:
+478.6k and 479.4k instructions per step).
 
     python3 benchmarks/count_instructions.py [--baseline-tree DIR] [--window 10 40] [FLIGHT ...]
 
@@ -57,9 +57,10 @@ print(scenario.simulation.max_step)
 """
 
 
-def Count(tree: Path, flight: str, until: float) -> tuple[int, float]:
-    """(instructions of a process that flies ``flight`` to ``until`` [s], the base step [s])."""
-    env = dict(os.environ, PYTHONPATH=str(tree), PYTHONHASHSEED="0")
+def Instructions(tree: Path, child: str, args: list[str], what: str) -> tuple[int, str]:
+    """(instructions, standard output) of ``python -c child *args`` with the package in ``tree``
+    under callgrind (``PYTHONHASHSEED=0``, address randomisation off where ``setarch`` is)."""
+    env = dict(os.environ, PYTHONPATH=str(tree), PYTHONHASHSEED="0", OPENBLAS_NUM_THREADS="1")
     fixed_addresses = ["setarch", "-R"] if shutil.which("setarch") else []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
@@ -71,9 +72,8 @@ def Count(tree: Path, flight: str, until: float) -> tuple[int, float]:
                 f"--callgrind-out-file={out}",
                 sys.executable,
                 "-c",
-                CHILD,
-                flight,
-                str(until),
+                child,
+                *args,
             ],
             env=env,
             cwd=tmp,
@@ -81,11 +81,17 @@ def Count(tree: Path, flight: str, until: float) -> tuple[int, float]:
             text=True,
         )
     if result.returncode != 0:
-        raise SystemExit(f"{flight} with {tree}: the flight failed:\n{result.stderr[-2000:]}")
+        raise SystemExit(f"{what} with {tree}: the flight failed:\n{result.stderr[-2000:]}")
     match = re.search(r"Collected : ([\d,]+)", result.stderr)
     if match is None:
-        raise SystemExit(f"{flight} with {tree}: no callgrind count in valgrind's output")
-    return int(match.group(1).replace(",", "")), float(result.stdout.split()[-1])
+        raise SystemExit(f"{what} with {tree}: no callgrind count in valgrind's output")
+    return int(match.group(1).replace(",", "")), result.stdout
+
+
+def Count(tree: Path, flight: str, until: float) -> tuple[int, float]:
+    """(instructions of a process that flies ``flight`` to ``until`` [s], the base step [s])."""
+    count, stdout = Instructions(tree, CHILD, [flight, str(until)], flight)
+    return count, float(stdout.split()[-1])
 
 
 def PerStep(tree: Path, flight: str, window: tuple[float, float]) -> float:
