@@ -302,7 +302,11 @@ class MissionProblem(GridSearch, SmoothModel):
             - self._margin_rate * t_low
         )
         self.lowest_risk_state = (t_low, m_0)
-        times = np.unique(np.minimum(self.t_rem, (self.n - 2) * self.step))
+        times = np.minimum(self.t_rem, (self.n - 2) * self.step)
+        if np.all(times[1:] >= times[:-1]):  # the staircase ascends: np.unique without its sort
+            times = times[np.concatenate(([True], times[1:] != times[:-1]))]
+        else:
+            times = np.unique(times)
         bucket = ExposureBucket(float(times[-1]))
         table = self._risk_tables.get(bucket)
         if table is None:  # RiskTable's own table for the bucket, kept (its cache key hashes)

@@ -92,7 +92,7 @@ _TINY = 1e-150
 _SEARCH = 32
 """Margins tried per bisection stage of :meth:`ExcessRiskTable.RequiredMargin`."""
 _COARSE = 4
-"""Every how many of them the coarse pass of :meth:`ExcessRiskTable._FirstWithin` reads."""
+"""Every how many of them the coarse pass of the search reads."""
 
 
 def _Trials(lo: np.ndarray, width: np.ndarray, k) -> np.ndarray:
@@ -221,22 +221,6 @@ class ExcessRiskTable:
         tail = np.where(margin < 0.0, 1.0, np.take(mixed, index))  # (..., U)
         return np.sum(weighted * tail, axis=-1) + none * (np.asarray(m_p) < 0.0)
 
-    def _FirstWithin(self, tau, lo, width, tau_0, m_0, fail_0, eps, exposure=None):
-        """(R ≤ ε at the last trial, the first of the trials m = lo + width·k/32, k = 0..32,
-        with R ≤ ε, 32 if none) per plan time. R falls as the margin grows, so the trials are
-        read coarse to fine: every 4th, then the 3 between the first within ε and the one
-        before it: the same answer as reading all 33, from 12 of them."""
-        coarse = np.arange(0, _SEARCH + 1, _COARSE)
-        trials = _Trials(lo, width, coarse)
-        ok = self._Excess(tau, trials, tau_0, m_0, fail_0, exposure) <= eps
-        c = np.where(ok.any(axis=1), np.argmax(ok, axis=1), coarse.size - 1)
-        between = np.maximum(c - 1, 0)[:, None] * _COARSE + np.arange(1, _COARSE)
-        trials = _Trials(lo, width, between)
-        fine = self._Excess(tau, trials, tau_0, m_0, fail_0, exposure) <= eps
-        first = np.where(fine.any(axis=1), between[:, 0] + np.argmax(fine, axis=1), c * _COARSE)
-        first = np.where((c == 0) | ~ok.any(axis=1), c * _COARSE, first)
-        return ok[:, -1], first
-
     def RequiredMargin(
         self,
         plan_time,
@@ -268,18 +252,63 @@ class ExcessRiskTable:
         # R falls as the margin grows: a plan that even m_p = m_0 does not keep within ε keeps
         # no margin within it (+inf, most plans late in a flight); the others are searched
         lo, width = np.zeros_like(tau_p), np.full_like(tau_p, m_0)
-        top = _Trials(lo, width, np.array([_SEARCH]))
-        found = self._Excess(tau, top, tau_0, lowest, fail_0, (mixed, weighted, none))[:, 0] <= eps
+        search = _Search(self, tau, tau_0, lowest, fail_0, eps, (mixed, weighted, none))
+        found = search.Within(_Trials(lo, width, np.array([_SEARCH])))[:, 0]
         rows = np.flatnonzero(found)
-        tau, lo, width = tau[rows], lo[rows], width[rows]
-        exposure = (mixed, weighted[rows], none[rows])
+        search = search.Rows(rows)
+        lo, width = lo[rows], width[rows]
         hi = np.full_like(tau_p, np.inf)
         for _ in range(2 if rows.size else 0):
-            _, first = self._FirstWithin(tau, lo, width, tau_0, lowest, fail_0, eps, exposure)
+            first = search.FirstWithin(lo, width)
             hi[rows] = lo + width * first / _SEARCH
             lo = np.where(first > 0, hi[rows] - width / _SEARCH, hi[rows])
             width = hi[rows] - lo
         return hi
+
+
+class _Search:
+    """R ≤ ε of trial margins for plans of times τ_p (rows) against one lowest plan (τ_0, m_0):
+    :meth:`ExcessRiskTable._Excess` ≤ ε with what does not depend on the trial margin computed
+    once (the same operations on the same values)."""
+
+    def __init__(self, table, tau, tau_0, m_0, fail_0, eps, exposure):
+        self.table, self.tau, self.tau_0, self.m_0 = table, tau, tau_0, m_0
+        self.fail_0, self.eps = fail_0, eps
+        self.mixed, self.weighted, self.none = exposure
+        self.rest = (1.0 - _U) * m_0[..., None]  # (1 − u) m_0 of M(u)
+        self.offset = _ROW * self.mixed.shape[1]
+        self.longer, self.level = tau >= tau_0, tau == tau_0
+
+    def Rows(self, rows) -> "_Search":
+        """The same search for the plans ``rows`` only."""
+        exposure = (self.mixed, self.weighted[rows], self.none[rows])
+        t = self.table
+        return _Search(t, self.tau[rows], self.tau_0, self.m_0, self.fail_0, self.eps, exposure)
+
+    def Within(self, trials) -> np.ndarray:
+        """R ≤ ε at the trial margins (rows, k) [-]."""
+        margin = _U * trials[..., None] + self.rest
+        index = (np.clip(margin, 0.0, 1.0) / self.table.step).astype(int) + self.offset
+        tail = np.where(margin < 0.0, 1.0, np.take(self.mixed, index))
+        fail_p = np.add.reduce(self.weighted * tail, axis=-1) + self.none * (trials < 0.0)
+        ordered = self.longer & (trials <= self.m_0)
+        risk = np.where(ordered, fail_p - self.fail_0, np.minimum(fail_p, 1.0 - self.fail_0))
+        lowest = self.level & (trials == self.m_0)
+        return np.where(lowest, 0.0, np.clip(risk, 0.0, 1.0)) <= self.eps
+
+    def FirstWithin(self, lo, width) -> np.ndarray:
+        """The first of the trials m = lo + width·k/32, k = 0..32, with R ≤ ε (32 if none) per
+        plan. R falls as the margin grows, so the trials are read coarse to fine: every 4th,
+        then the 3 between the first within ε and the one before it: the same answer as reading
+        all 33, from 12 of them."""
+        coarse = np.arange(0, _SEARCH + 1, _COARSE)
+        ok = self.Within(_Trials(lo, width, coarse))
+        some = ok.any(axis=1)
+        c = np.where(some, np.argmax(ok, axis=1), coarse.size - 1)
+        between = np.maximum(c - 1, 0)[:, None] * _COARSE + np.arange(1, _COARSE)
+        fine = self.Within(_Trials(lo, width, between))
+        first = np.where(fine.any(axis=1), between[:, 0] + np.argmax(fine, axis=1), c * _COARSE)
+        return np.where((c == 0) | ~some, c * _COARSE, first)
 
 
 @functools.lru_cache(maxsize=16)
