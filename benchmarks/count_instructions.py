@@ -60,6 +60,7 @@ print(scenario.simulation.max_step)
 def Instructions(tree: Path, child: str, args: list[str], what: str) -> tuple[int, str]:
     """(instructions, standard output) of ``python -c child *args`` with the package in ``tree``
     under callgrind (``PYTHONHASHSEED=0``, address randomisation off where ``setarch`` is)."""
+    tree = Path(tree).resolve()  # the child runs in a temporary folder
     env = dict(os.environ, PYTHONPATH=str(tree), PYTHONHASHSEED="0", OPENBLAS_NUM_THREADS="1")
     fixed_addresses = ["setarch", "-R"] if shutil.which("setarch") else []
     with tempfile.TemporaryDirectory() as tmp:
