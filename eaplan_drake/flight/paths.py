@@ -18,6 +18,7 @@ E = [[0, 1], [−1, 0]]: for a circle s = +1 is clockwise, s = −1 counter-cloc
 """
 
 import dataclasses as dc
+import math
 
 import numpy as np
 
@@ -52,11 +53,11 @@ class PathFunction:
 
     def __post_init__(self):
         values = [self.a, *self.b, self.c, self.s, self.k_e]
-        if not all(np.isfinite(values)):
+        if not all(math.isfinite(v) for v in values):
             raise ValueError(f"PathFunction: coefficients must be finite, got {values}")
         if self.s not in (-1.0, 1.0):
             raise ValueError(f"PathFunction.s (direction) must be +1 or -1, got {self.s}")
-        if self.a == 0.0 and np.hypot(*self.b) == 0.0:
+        if self.a == 0.0 and math.hypot(*self.b) == 0.0:
             raise ValueError("PathFunction: a line needs a non-zero normal b")
 
     @property
