@@ -80,3 +80,18 @@ def test_bad_input_is_a_clear_error():
         PathFunction.FromDescriptor([1, 2, 3])
     with pytest.raises(TypeError, match="k_e"):  # no default gain: the scenario's k_e is given
         Line((0, 0), (1.0, 0.0))
+
+
+@pytest.mark.parametrize(
+    "coefficients, message",
+    [
+        (dict(a=float("nan"), b=(1.0, 0.0), c=0.0), "coefficients must be finite"),
+        (dict(a=0.0, b=(1.0, float("inf")), c=0.0), "coefficients must be finite"),
+        (dict(a=0.0, b=(0.0, 0.0), c=0.0), "a line needs a non-zero normal b"),
+        (dict(a=0.0, b=(1.0, 0.0), c=0.0, s=0.5), r"s \(direction\) must be \+1 or -1"),
+    ],
+)
+def test_a_path_function_refuses_bad_coefficients_in_one_line(coefficients, message):
+    with pytest.raises(ValueError, match=message) as e:
+        PathFunction(**coefficients, k_e=1.0)
+    assert "\n" not in str(e.value)
