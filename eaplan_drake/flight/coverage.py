@@ -67,6 +67,9 @@ from eaplan_drake.flight.stages import (
     APPROACH,
     NUM_PRIMITIVES,
     ArcAngle,
+    ArcTime,
+    CheckedWind,
+    LineSpeed,
     Stage,
     StageTime,
     SurveyFraction,
@@ -301,6 +304,11 @@ def FlownStages(plan: PlanSource, stage_index, flown_c1) -> tuple[Stage, ...]:
     return tuple(flown)
 
 
+def _LineTime(length: float, speed: float) -> float:
+    """StageTime [s] of a line of ``length`` [m] flown at the ground speed ``speed`` [m/s]."""
+    return 0.0 if length <= 0.0 else length / speed
+
+
 def _SurveyLength(stages) -> float:
     return float(sum(s.length for s in stages if s.primitive != APPROACH))
 
@@ -438,19 +446,8 @@ class ZamboniCoverage(PlanSource):
         None for the last), after the second line at ``prev_eta_u`` [m] (None: the first). The
         rest rebuilt at a stage switch shares every repetition but its first with the rest built
         at the switch before, so each is built once."""
-        poly, h, k_e = self.polygon, self.x_d / 2.0, self.k_e
-        eta_u = eta_d + 2.0 * self.r1
-        lo_d, hi_d = poly.BandExtent(eta_d, h)
-        lo_u, hi_u = poly.BandExtent(eta_u, h)
-        if prev_eta_u is not None:
-            top_d = min(lo_d, poly.BandExtent(prev_eta_u, h)[0])
-        else:
-            top_d = lo_d
-        bottom = max(hi_d, hi_u)
-        top_u = lo_u
-        if r2 is not None:
-            eta_next = eta_u - 2.0 * r2
-            top_u = min(lo_u, poly.BandExtent(eta_next, h)[0])
+        poly, k_e = self.polygon, self.k_e
+        top_d, bottom, top_u, eta_u = self._RepGeometry(eta_d, r2, prev_eta_u)
         W = poly.ToWorld
         p_top_d = W(top_d, eta_d)
         p_bot_d = W(bottom, eta_d)
@@ -483,12 +480,64 @@ class ZamboniCoverage(PlanSource):
             for path, trig, prim, entry, length in items
         )
 
+    def _RepGeometry(self, eta_d: float, r2, prev_eta_u) -> tuple[float, float, float, float]:
+        """(ξ of the first line's top, ξ of the bottom of both lines, ξ of the second line's top,
+        η_u of the second line) [m] of the repetition of :meth:`_RepStages` (the same arguments):
+        each line spans the polygon over its band, and a turn reaches the farther of its lines'
+        ends."""
+        poly, h = self.polygon, self.x_d / 2.0
+        eta_u = eta_d + 2.0 * self.r1
+        lo_d, hi_d = poly.BandExtent(eta_d, h)
+        lo_u, hi_u = poly.BandExtent(eta_u, h)
+        if prev_eta_u is not None:
+            top_d = min(lo_d, poly.BandExtent(prev_eta_u, h)[0])
+        else:
+            top_d = lo_d
+        bottom = max(hi_d, hi_u)
+        top_u = lo_u
+        if r2 is not None:
+            eta_next = eta_u - 2.0 * r2
+            top_u = min(lo_u, poly.BandExtent(eta_next, h)[0])
+        return top_d, bottom, top_u, eta_u
+
     @_Memoized(4096)
     def _RepTimes(self, k, eta_d, r2, c1, prev_eta_u, airspeed, wind) -> tuple[float, ...]:
-        """StageTime [s] of each stage of :meth:`_RepStages` at ``airspeed`` in ``wind``."""
-        w = np.array(wind)
-        stages = self._RepStages(k, eta_d, r2, c1, prev_eta_u)
-        return tuple(StageTime(s, airspeed, w) for s in stages)
+        """StageTime [s] of each stage of :meth:`_RepStages` at ``airspeed`` in ``wind``, from the
+        repetition's geometry without building its stages (the staircase times ~20 values of c1
+        whose stages nobody flies): the same lengths, the lines' ground speed (:meth:`_LineSpeed`)
+        and, in wind, the same circles timed by the same function, so the same numbers."""
+        w = CheckedWind(airspeed, wind)
+        top_d, bottom, top_u, eta_u = self._RepGeometry(eta_d, r2, prev_eta_u)
+        r1 = self.r1
+        times = [
+            _LineTime(float(bottom - top_d), self._LineSpeed(1.0, airspeed, wind)),
+            self._HalfCircleTime(bottom, eta_d + r1, r1, eta_d, airspeed, w),
+            _LineTime(float(bottom - top_u), self._LineSpeed(-1.0, airspeed, wind)),
+        ]
+        if r2 is not None:
+            times.append(self._HalfCircleTime(top_u, eta_u - r2, r2, eta_u, airspeed, w))
+        return tuple(times)
+
+    @_Memoized(64)
+    def _LineSpeed(self, s: float, airspeed: float, wind) -> float:
+        """Ground speed [m/s] along every line of the plan flown in direction s (all have the
+        normal e2 and :func:`LineSpeed` is the same at every point of a line)."""
+        poly = self.polygon
+        line = Line(poly.origin, poly.e2, s=s, k_e=self.k_e)
+        return LineSpeed(line, poly.origin, airspeed, CheckedWind(airspeed, wind))
+
+    def _HalfCircleTime(self, xi, eta_o, radius, eta_entry, airspeed, w) -> float:
+        """StageTime [s] of the left half circle of ``radius`` [m] around (ξ, η_o) entered at
+        (ξ, η_entry) (local frame [m]), as :meth:`_RepStages` builds it."""
+        length = float(math.pi * radius)
+        if length <= 0.0:
+            return 0.0
+        if not w.any():  # ArcTime in still air: the circle itself is not needed
+            return length / airspeed
+        W = self.polygon.ToWorld
+        entry = W(xi, eta_entry)
+        path = Circle(W(xi, eta_o), radius, s=-1.0, k_e=self.k_e)
+        return ArcTime(path, (float(entry[0]), float(entry[1])), length, airspeed, w)
 
     def _BuildTimes(self, reps: list, prev_eta_u, airspeed, wind) -> tuple[float, ...]:
         """StageTime [s] of each stage of :meth:`_Build` (the same arguments), in order."""
@@ -534,17 +583,18 @@ class ZamboniCoverage(PlanSource):
         return tuple(s for s in self._RestFrom(k, eta_d, c1) if s.index > index)
 
     def _StageTimesAfter(self, index, anchor, c1, airspeed, wind) -> tuple[float, ...]:
+        """The stage times of :meth:`_StagesAfter`, timed per repetition (:meth:`_RepTimes`)."""
         k, prim, eta_d, r2k = anchor
         k, prim = int(round(k)), int(round(prim))
-        if prim == APPROACH:
-            return super()._StageTimesAfter(index, anchor, c1, airspeed, wind)
-        if prim == 3:  # the stages of :meth:`_StagesAfter`, timed per repetition
+        if prim == APPROACH:  # the whole plan but the approach
+            return self._RestTimes(0, self.x_d / 2.0, c1, airspeed, wind)
+        if prim == 3:
             eta_u = eta_d + 2.0 * self.r1
             reps = self._Reps(k + 1, eta_u - 2.0 * r2k, c1)
             return self._BuildTimes(reps, eta_u, airspeed, wind)
-        rest = self._RestFrom(k, eta_d, c1)
+        # The stages of :meth:`_RestFrom` are numbered on from 1 + 4k: those after ``index``.
         times = self._RestTimes(k, eta_d, c1, airspeed, wind)
-        return tuple(t for s, t in zip(rest, times, strict=True) if s.index > index)
+        return times[max(0, index - (1 + NUM_PRIMITIVES * k) + 1) :]
 
     @_Memoized(64)
     def _RestTimes(self, k, eta_d, c1, airspeed, wind) -> tuple[float, ...]:

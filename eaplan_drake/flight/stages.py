@@ -4,7 +4,8 @@ the triggering point p_Γ where the next stage starts and the index of the primi
 repeats (:data:`APPROACH` for the stage that brings the aircraft onto the first line). The
 functions here measure a stage: the path length left on it (:func:`PathLeft`), the survey
 fraction still to fly (:func:`SurveyFraction`), and the time to fly it at an airspeed in a
-constant wind (:func:`StageTime`, with the ground speed :func:`GroundSpeed`)."""
+constant wind (:func:`StageTime`, with the ground speed :func:`GroundSpeed`; its parts
+:func:`LineSpeed` and :func:`ArcTime` time a path without a stage)."""
 
 import dataclasses as dc
 import functools
@@ -20,7 +21,10 @@ __all__ = [
     "APPROACH",
     "NUM_PRIMITIVES",
     "ArcAngle",
+    "ArcTime",
+    "CheckedWind",
     "GroundSpeed",
+    "LineSpeed",
     "PathLeft",
     "PathLength",
     "Stage",
@@ -204,22 +208,42 @@ def GroundSpeed(course, airspeed: float, wind=(0.0, 0.0)) -> float:
 def StageTime(stage: Stage, airspeed: float, wind=(0.0, 0.0)) -> float:
     """Time [s] to fly ``stage`` from its entry to its trigger at ``airspeed`` in constant
     ``wind`` (exact on the nominal path; midpoint rule over the arc for circles)."""
-    w = np.asarray(wind, dtype=float)
-    if not airspeed > 0.0 or not math.hypot(*w) < airspeed:
-        raise ValueError(f"StageTime: need 0 < |wind| < airspeed, got {w} and {airspeed}")
+    w = CheckedWind(airspeed, wind)
     if stage.length <= 0.0:
         return 0.0
     path = stage.path
     if not path.is_circle:
-        t = path.tangent(stage.trigger)
-        return stage.length / GroundSpeed(t / np.linalg.norm(t), airspeed, w)
+        return stage.length / LineSpeed(path, stage.trigger, airspeed, w)
+    return ArcTime(path, stage.entry, stage.length, airspeed, w)
+
+
+def CheckedWind(airspeed: float, wind) -> np.ndarray:
+    """``wind`` [m/s] as an array; ValueError unless 0 < ‖wind‖ < ``airspeed`` [m/s]."""
+    w = np.asarray(wind, dtype=float)
+    if not airspeed > 0.0 or not math.hypot(*w) < airspeed:
+        raise ValueError(f"StageTime: need 0 < |wind| < airspeed, got {w} and {airspeed}")
+    return w
+
+
+def LineSpeed(path: PathFunction, point, airspeed: float, w: np.ndarray) -> float:
+    """Ground speed [m/s] along the line ``path`` at ``point`` [m] (:func:`GroundSpeed` along its
+    direction of travel) at ``airspeed`` [m/s] in wind ``w`` [m/s]. The same number at every
+    point of a line: its tangent s E ∇φ = s E (0·p + b) is s E b up to the signs of zeros, which
+    change no product or sum of :func:`GroundSpeed`."""
+    t = path.tangent(point)
+    return GroundSpeed(t / np.linalg.norm(t), airspeed, w)
+
+
+def ArcTime(path: PathFunction, entry, length: float, airspeed: float, w: np.ndarray) -> float:
+    """Time [s] to fly ``length`` [m] (> 0) on the circle ``path`` from ``entry`` [m] at
+    ``airspeed`` [m/s] in wind ``w`` [m/s] (the circle part of :func:`StageTime`)."""
     if not w.any():
-        return stage.length / airspeed
+        return length / airspeed
     o = path.center
     ccw = (path.s < 0) == (path.a > 0)
-    a0 = math.atan2(stage.entry[1] - o[1], stage.entry[0] - o[0])
+    a0 = math.atan2(entry[1] - o[1], entry[0] - o[0])
     return _ArcTime(
-        float(stage.length), float(path.radius), a0, ccw, float(airspeed), float(w[0]), float(w[1])
+        float(length), float(path.radius), a0, ccw, float(airspeed), float(w[0]), float(w[1])
     )
 
 
