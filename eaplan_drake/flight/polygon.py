@@ -130,11 +130,8 @@ class CoveragePolygon:
     def Chord(self, eta: float) -> tuple[float, float]:
         """(ξ_lo, ξ_hi): the extent of the polygon along e1 at offset η (clipped to [0, W])."""
         eta = min(max(eta, 0.0), self.width)
-        L = self.local
         values = []
-        m = len(L)
-        for k in range(m):
-            (xa, ya), (xb, yb) = L[k], L[(k + 1) % m]
+        for (xa, ya), (xb, yb) in self._Edges():
             if ya == yb:
                 if abs(ya - eta) <= 1e-9 * self._scale:
                     values += [xa, xb]
@@ -142,13 +139,31 @@ class CoveragePolygon:
             if (ya - eta) * (yb - eta) <= 0.0:
                 values.append(xa + (eta - ya) / (yb - ya) * (xb - xa))
         if not values:  # numerically at a vertex
-            k = int(np.argmin(np.abs(L[:, 1] - eta)))
-            values = [L[k, 0]]
+            etas = [ya for _, ya in self._Corners()]
+            k = min(range(len(etas)), key=lambda i: abs(etas[i] - eta))
+            values = [self._Corners()[k][0]]
         return min(values), max(values)
+
+    def _Corners(self) -> list[tuple[float, float]]:
+        """The hull's corners (ξ, η) [m] in the local frame, as Python floats (kept: the plan
+        reads chords thousands of times, and a float is read faster than an array's element)."""
+        corners = self.__dict__.get("_corners")
+        if corners is None:
+            corners = self.__dict__["_corners"] = [(float(x), float(y)) for x, y in self.local]
+        return corners
+
+    def _Edges(self) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+        """The hull's edges as pairs of :meth:`_Corners`, in order (kept)."""
+        edges = self.__dict__.get("_edges")
+        if edges is None:
+            c = self._Corners()
+            edges = self.__dict__["_edges"] = [(c[k], c[(k + 1) % len(c)]) for k in range(len(c))]
+        return edges
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.pop("_band_extents", None)  # a cache, rebuilt on use
+        for cache in ("_band_extents", "_corners", "_edges"):  # caches, rebuilt on use
+            state.pop(cache, None)
         return state
 
     def BandExtent(self, eta: float, half_width: float) -> tuple[float, float]:
@@ -166,6 +181,6 @@ class CoveragePolygon:
     def _BandExtent(self, eta: float, half_width: float) -> tuple[float, float]:
         lo_eta = min(max(eta - half_width, 0.0), self.width)
         hi_eta = min(max(eta + half_width, 0.0), self.width)
-        etas = [lo_eta, hi_eta] + [e for e in self.local[:, 1] if lo_eta < e < hi_eta]
+        etas = [lo_eta, hi_eta] + [e for _, e in self._Corners() if lo_eta < e < hi_eta]
         chords = [self.Chord(e) for e in etas]
         return min(c[0] for c in chords), max(c[1] for c in chords)
