@@ -94,6 +94,12 @@ _SEARCH = 32
 _COARSE = 4
 """Every how many of them the coarse pass of the search reads."""
 
+_COARSE_TRIALS = np.arange(0, _SEARCH + 1, _COARSE)
+"""The indices k of the coarse pass's trials (0, 4, … 32)."""
+
+_LAST_TRIAL = np.array([_SEARCH])
+"""The index k of the last trial, m_p = lo + width (m_0 itself in the first stage)."""
+
 
 def _Trials(lo: np.ndarray, width: np.ndarray, k) -> np.ndarray:
     """The trial margins lo + width·k/32 [-] of each plan (rows) at the indices k."""
@@ -249,27 +255,27 @@ class ExcessRiskTable:
         if baseline_failure is not None:
             fail_0 = np.minimum(fail_0, float(baseline_failure))
         mixed, weighted, none = self._Exposure(tau, float(tau_0))
+        search = _Search(self, tau, tau_0, lowest, fail_0, eps, (mixed, weighted, none))
         # R falls as the margin grows: a plan that even m_p = m_0 does not keep within ε keeps
         # no margin within it (+inf, most plans late in a flight); the others are searched
         lo, width = np.zeros_like(tau_p), np.full_like(tau_p, m_0)
-        search = _Search(self, tau, tau_0, lowest, fail_0, eps, (mixed, weighted, none))
-        found = search.Within(_Trials(lo, width, np.array([_SEARCH])))[:, 0]
-        rows = np.flatnonzero(found)
-        search = search.Rows(rows)
-        lo, width = lo[rows], width[rows]
+        rows = np.flatnonzero(search.Within(_Trials(lo, width, _LAST_TRIAL))[:, 0])
         hi = np.full_like(tau_p, np.inf)
-        for _ in range(2 if rows.size else 0):
-            first = search.FirstWithin(lo, width)
-            hi[rows] = lo + width * first / _SEARCH
-            lo = np.where(first > 0, hi[rows] - width / _SEARCH, hi[rows])
-            width = hi[rows] - lo
+        if rows.size:
+            search, lo, width = search.Rows(rows), lo[rows], width[rows]
+            for _ in range(2):
+                first = search.FirstWithin(lo, width)
+                hi[rows] = lo + width * first / _SEARCH
+                lo = np.where(first > 0, hi[rows] - width / _SEARCH, hi[rows])
+                width = hi[rows] - lo
         return hi
 
 
 class _Search:
-    """R ≤ ε of trial margins for plans of times τ_p (rows) against one lowest plan (τ_0, m_0):
+    """R ≤ ε of trial margins for plans of times τ_p (rows) against one lowest plan (τ_0, m_0 > 0):
     :meth:`ExcessRiskTable._Excess` ≤ ε with what does not depend on the trial margin computed
-    once (the same operations on the same values)."""
+    once (the same operations on the same values). Every trial margin m_p is in [0, m_0], so
+    M(u) = u m_p + (1 − u) m_0 is never negative: the branches of a negative margin drop out."""
 
     def __init__(self, table, tau, tau_0, m_0, fail_0, eps, exposure):
         self.table, self.tau, self.tau_0, self.m_0 = table, tau, tau_0, m_0
@@ -278,6 +284,10 @@ class _Search:
         self.rest = (1.0 - _U) * m_0[..., None]  # (1 − u) m_0 of M(u)
         self.offset = _ROW * self.mixed.shape[1]
         self.longer, self.level = tau >= tau_0, tau == tau_0
+        self.all_longer, self.any_level = bool(self.longer.all()), bool(self.level.any())
+        self.spare = 1.0 - fail_0
+        # clip(R, 0, 1) ≤ ε is R ≤ ε for 0 ≤ ε < 1 (and NaN fails both)
+        self.clipped = not 0.0 <= eps < 1.0
 
     def Rows(self, rows) -> "_Search":
         """The same search for the plans ``rows`` only."""
@@ -286,25 +296,27 @@ class _Search:
         return _Search(t, self.tau[rows], self.tau_0, self.m_0, self.fail_0, self.eps, exposure)
 
     def Within(self, trials) -> np.ndarray:
-        """R ≤ ε at the trial margins (rows, k) [-]."""
+        """R ≤ ε at the trial margins (rows, k) [-], all in [0, m_0]."""
         margin = _U * trials[..., None] + self.rest
-        index = (np.clip(margin, 0.0, 1.0) / self.table.step).astype(int) + self.offset
-        tail = np.where(margin < 0.0, 1.0, np.take(self.mixed, index))
-        fail_p = np.add.reduce(self.weighted * tail, axis=-1) + self.none * (trials < 0.0)
-        ordered = self.longer & (trials <= self.m_0)
-        risk = np.where(ordered, fail_p - self.fail_0, np.minimum(fail_p, 1.0 - self.fail_0))
-        lowest = self.level & (trials == self.m_0)
-        return np.where(lowest, 0.0, np.clip(risk, 0.0, 1.0)) <= self.eps
+        index = (np.minimum(margin, 1.0) / self.table.step).astype(int) + self.offset
+        fail_p = np.add.reduce(self.weighted * np.take(self.mixed, index), axis=-1)
+        ordered = trials <= self.m_0
+        if not self.all_longer:
+            ordered &= self.longer
+        risk = np.where(ordered, fail_p - self.fail_0, np.minimum(fail_p, self.spare))
+        within = (np.clip(risk, 0.0, 1.0) if self.clipped else risk) <= self.eps
+        if self.any_level:  # the lowest plan itself: R = 0
+            within |= self.level & (trials == self.m_0)
+        return within
 
     def FirstWithin(self, lo, width) -> np.ndarray:
         """The first of the trials m = lo + width·k/32, k = 0..32, with R ≤ ε (32 if none) per
         plan. R falls as the margin grows, so the trials are read coarse to fine: every 4th,
         then the 3 between the first within ε and the one before it: the same answer as reading
         all 33, from 12 of them."""
-        coarse = np.arange(0, _SEARCH + 1, _COARSE)
-        ok = self.Within(_Trials(lo, width, coarse))
+        ok = self.Within(_Trials(lo, width, _COARSE_TRIALS))
         some = ok.any(axis=1)
-        c = np.where(some, np.argmax(ok, axis=1), coarse.size - 1)
+        c = np.where(some, np.argmax(ok, axis=1), _COARSE_TRIALS.size - 1)
         between = np.maximum(c - 1, 0)[:, None] * _COARSE + np.arange(1, _COARSE)
         fine = self.Within(_Trials(lo, width, between))
         first = np.where(fine.any(axis=1), between[:, 0] + np.argmax(fine, axis=1), c * _COARSE)
