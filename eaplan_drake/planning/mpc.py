@@ -185,6 +185,7 @@ class MissionProblem(GridSearch, SmoothModel):
         self.lower, self.upper = table.lower, table.upper
         self.span = np.where(self.upper > self.lower, self.upper - self.lower, 1.0)
         self.candidates, self.candidate_power = GridCandidates(table)
+        self._candidate_keys = tuple(dict.fromkeys(float(g) for g in self.candidate_power))
         self.candidate_u2 = np.mean((self.candidates - self.lower) / self.span, axis=1)
         self.lowest_candidate = int(np.flatnonzero(np.all(self.candidates == self.lower, 1))[0])
         w1, w2 = float(planner.path_weight), float(planner.computation_weight)
@@ -203,7 +204,6 @@ class MissionProblem(GridSearch, SmoothModel):
         self._climb_cache: dict = {}
         self._option_brackets = None
         self._lowest_cache: dict = {}
-        self._margin_cache: dict = {}
         self._margin_rows: dict = {}
         self._recursive_cache: dict = {}
         self._nodes = np.zeros(0)
@@ -271,7 +271,6 @@ class MissionProblem(GridSearch, SmoothModel):
         self._row_best = {}
         self._climb_cache = {}
         self._lowest_cache = {}
-        self._margin_cache = {}
         self._margin_rows = {}
         self._recursive_cache = {}
         s_b = -float(self.battery_model.SocRateSlope(max(float(q[0]), 0.0)))
@@ -378,13 +377,23 @@ class MissionProblem(GridSearch, SmoothModel):
         [W]; −inf from the first node whose step contains a brown-out load."""
         key = float(power)
         if key not in self._cache:
-            y = self.f_half + (key - self.g_now)
-            soc = SimpsonSoc(y, self.soc0, self.battery_model, self.step)
-            brown = self.battery_model.IsBrownout(y)
-            if np.any(brown):
-                first = int(np.argmax(brown))
-                soc[(first + 1) // 2 :] = -np.inf
-            self._cache[key] = soc
+            # a step reads the curves of all its candidate powers (and rarely another): all of
+            # them at once, as the columns of one load (every operation is element-wise along
+            # the powers, so each column is the curve of its power alone)
+            keys = [key]
+            if key in self._candidate_keys:
+                keys = [k for k in self._candidate_keys if k not in self._cache]
+            offsets = np.array([k - self.g_now for k in keys])
+            y = self.f_half[:, None] + offsets
+            socs = SimpsonSoc(y, self.soc0, self.battery_model, self.step)
+            browns = self.battery_model.IsBrownout(y)
+            for column, k in enumerate(keys):
+                soc = np.ascontiguousarray(socs[:, column])
+                brown = browns[:, column]
+                if np.any(brown):
+                    first = int(np.argmax(brown))
+                    soc[(first + 1) // 2 :] = -np.inf
+                self._cache[k] = soc
         return self._cache[key]
 
     def SocAt(self, power: float, t):
@@ -423,10 +432,7 @@ class MissionProblem(GridSearch, SmoothModel):
         row = self._row_cache.get(key)
         if row is None:
             end = self.SocAt(power, self.t_rem)
-            margins = self._margin_rows.get(key[1:])
-            if margins is None:  # the same for every power: once per step and margin setting
-                margins = self._margin_rows[key[1:]] = self.Margin(self.t_rem)
-            ok = (end >= float(self.battery.reserve_soc) + margins) & ~self._beyond
+            ok = (end >= float(self.battery.reserve_soc) + self._MarginRow()) & ~self._beyond
             if self.RecursiveSlack(power) < 0.0:
                 ok = np.zeros_like(ok)
             row = self._row_cache[key] = (ok, end)
@@ -451,13 +457,20 @@ class MissionProblem(GridSearch, SmoothModel):
             feasible=bool(feasible),
         )
 
+    def _MarginRow(self) -> np.ndarray:
+        """m(t_rem) [-] at the grid's remaining times, computed once per step and margin setting
+        (the same for every power; shared, read only)."""
+        key = (self._margin_rate, self._faults_counted)
+        margins = self._margin_rows.get(key)
+        if margins is None:
+            margins = self._margin_rows[key] = self.Margin(self.t_rem)
+        return margins
+
     def _MarginAt(self, j: int) -> float:
-        """m(t_rem(c1_j)) [-], computed once per step and margin setting."""
-        key = (j, self._margin_rate, self._faults_counted)
-        margin = self._margin_cache.get(key)
-        if margin is None:
-            margin = self._margin_cache[key] = float(self.Margin(self.t_rem[j]))
-        return margin
+        """m(t_rem(c1_j)) [-]: element j of :meth:`_MarginRow` (every term of m is elementwise,
+        and the risk margin's interpolant is exactly its value at the nodes t_rem(c1_j) and
+        constant beyond the last one: the same number as m of t_rem(c1_j) alone)."""
+        return float(self._MarginRow()[j])
 
     def Lowest(self) -> MissionDecision:
         """The lowest plan (c̲1, c̲2), with its feasibility (computed once per step and margin
