@@ -1,7 +1,7 @@
 """Are the flights of this tree the same, bit for bit, as those of another tree?
 
     python3 benchmarks/flights_bit_for_bit.py --baseline-tree ../base [--flights plan_i,survey]
-        [--certify-worlds 20]
+        [--certify-worlds 20] [--certify-set planner.reserve=fixed]
 
 flies each flight in a fresh process with this tree and with the baseline tree (a checkout of
 another version, e.g. ``git worktree add ../base <commit>``), saves every logged signal and the
@@ -10,7 +10,8 @@ measure the machine (wall and solve times) are left out. Prints one line per fli
 non-zero if any differs. The default flights: the four reference flights, the compare flights
 with the default planner, a greedy flight in wind and the shipped survey; ``--certify-worlds N``
 adds the default policy's flights on the first N worlds that ``eaplan-drake certify survey`` draws
-(faults, noise, dropouts and wind: they exercise the risk reserve's every branch).
+(faults, noise, dropouts and wind: they exercise the risk reserve's every branch), with
+``--certify-set`` assignments on their scenario if given.
 """
 
 import argparse
@@ -49,6 +50,11 @@ if name.startswith("certify:"):  # the policy flight of one world that certify d
     scenario_name, world = name.split(":")[1], int(name.split(":")[2])
     flights = StudyFlights(CertifyStudy(scenario_name, world + 1))
     scenario = next(s for k, s in flights if k["world"] == world and k["policy"] != "lowest")
+    if json.loads(sys.argv[3]):  # --certify-set: KEY=VALUE assignments on the world's scenario
+        from eaplan_drake.loading import LayerScenario, OverrideFromAssignment
+
+        assignments = json.loads(sys.argv[3])
+        scenario = LayerScenario(scenario, [OverrideFromAssignment(a) for a in assignments])
 else:
     scenario = LoadNamedScenario(name, json.loads(sys.argv[3]))
 log = Simulate(scenario)
@@ -105,11 +111,21 @@ def main() -> int:
     ap.add_argument("--baseline-tree", required=True, type=Path)
     ap.add_argument("--flights", default=",".join(FLIGHTS), help="comma-separated names")
     ap.add_argument("--certify-worlds", type=int, default=0, metavar="N")
+    ap.add_argument(
+        "--certify-set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an assignment on every certify world's policy scenario (e.g. planner.reserve=fixed)",
+    )
     args = ap.parse_args()
     here = Path(__file__).resolve().parents[1]
     flights = {name: FLIGHTS[name] for name in args.flights.split(",") if name}
     flights.update(
-        {f"certify_{k}": (f"certify:survey:{k}", []) for k in range(args.certify_worlds)}
+        {
+            f"certify_{k}": (f"certify:survey:{k}", args.certify_set)
+            for k in range(args.certify_worlds)
+        }
     )
     same = True
     with tempfile.TemporaryDirectory() as tmp:
