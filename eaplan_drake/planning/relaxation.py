@@ -77,14 +77,15 @@ def _PchipSlopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Node derivatives of the monotone cubic interpolant of (x, y) (Fritsch–Carlson)."""
     if x.size < 2:
         return np.zeros_like(y)
-    delta = np.diff(y) / np.diff(x)
+    delta = (np.diff(y) / np.diff(x)).tolist()
     d = np.zeros_like(y)
     d[0], d[-1] = delta[0], delta[-1]
-    for k in range(1, x.size - 1):
+    xs = x.tolist()  # the same arithmetic on Python floats (read faster than array elements)
+    for k in range(1, len(xs) - 1):
         a, b = delta[k - 1], delta[k]
         if a * b > 0.0:  # weighted harmonic mean; 0 at a local extremum or a plateau
-            w1 = 2 * (x[k + 1] - x[k]) + (x[k] - x[k - 1])
-            w2 = (x[k + 1] - x[k]) + 2 * (x[k] - x[k - 1])
+            w1 = 2 * (xs[k + 1] - xs[k]) + (xs[k] - xs[k - 1])
+            w2 = (xs[k + 1] - xs[k]) + 2 * (xs[k] - xs[k - 1])
             d[k] = (w1 + w2) / (w1 / a + w2 / b)
     return d
 
