@@ -211,14 +211,14 @@ def test_the_mission_budget_is_halved_after_each_drop_and_anchored_there(table, 
             break
     d = policy.Plan(o, policy.InitialMemory())
     predicted, drops, anchor_end, _ = d.memory[-4:]
-    assert drops == 0 and pb._risk == 0.02
+    assert drops == 0 and pb.risk_budget == 0.02
     assert anchor_end == pytest.approx(o.time + pb.t_rem[0])
     steady = dc.replace(o, time=o.time + pb.step, soc=predicted)
     d = policy.Plan(steady, d.memory)
     assert d.memory[-3] == 0 and d.memory[-2] == anchor_end  # the anchor holds
     dropped = dc.replace(o, time=o.time + 2 * pb.step, soc=d.memory[-4] - 0.05)
     d = policy.Plan(dropped, d.memory)
-    assert d.memory[-3] == 1 and pb._risk == 0.01  # the next budget, anchored anew
+    assert d.memory[-3] == 1 and pb.risk_budget == 0.01  # the next budget, anchored anew
     assert d.memory[-2] == pytest.approx(dropped.time + pb.t_rem[0])
 
 

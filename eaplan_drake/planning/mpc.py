@@ -280,6 +280,12 @@ class MissionProblem(GridSearch, SmoothModel):
         if self._fault_model is not None:
             self._SetRiskMargins()
 
+    @property
+    def risk_budget(self) -> float:
+        """ε_k [-]: the excess risk the steps may spend (the last :meth:`SetRiskBudget`, else
+        ``planner.risk``); 0 with the fixed reserve, which keeps no stated risk."""
+        return self._risk if self._fault_model is not None else 0.0
+
     def SetRiskBudget(self, budget: float, anchor: tuple[float, float] | None = None) -> None:
         """The excess risk ε_k [-] the next steps may spend (``reserve: risk``) and the mission's
         anchor (τ_a [s] still to fly, m_a [-]): the lowest plan as it stood when the budget was
