@@ -142,12 +142,9 @@ class MissionProgram:
         b_end, db_dt, db_dg = pb.SmoothSoc(g, t)
         reserve = float(pb.battery.reserve_soc)
         c1 = b_end - reserve - float(pb.Margin(t))
-        g_low = float(pb.candidate_power[pb.lowest_candidate])
-        t_low = float(pb.t_rem[0])
         b_step, _, db_step_dg = pb.SmoothSoc(g, pb.step)
-        low_step = pb.SmoothSoc(g_low, pb.step)[0]
-        low_end = pb.SmoothSoc(g_low, t_low)[0]
-        c2 = b_step - low_step + low_end - reserve - float(pb.RecursiveMargin(t_low))
+        low_step, low_end, low_margin = pb.SmoothLowestTerms()
+        c2 = b_step - low_step + low_end - reserve - low_margin
         out = self.scale * np.array([c1, c2])
         if not autodiff:
             return out

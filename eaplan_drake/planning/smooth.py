@@ -62,8 +62,27 @@ class SmoothModel:
                 dsoc,
                 slope[0::2],
             )
+            # as Python floats for SmoothSoc (the solver reads a few nodes at a time, thousands
+            # of times a flight; a float is read faster than an array's element)
+            nodes = tuple(v.tolist() for v in nodes)
             self._smooth_cache[key] = nodes
         return nodes
+
+    def SmoothLowestTerms(self) -> tuple[float, float, float]:
+        """(b(h_T), b(t_rem(c̲1)), the margin (2) asks at t_rem(c̲1)) [-] of the lowest plan in the
+        smooth model: the terms of the NLP's constraint (2) that do not depend on the plan,
+        computed once per step and margin setting."""
+        key = ("lowest", self._margin_rate, self._faults_counted)
+        terms = self._smooth_cache.get(key)
+        if terms is None:
+            g_low = float(self.candidate_power[self.lowest_candidate])
+            t_low = float(self.t_rem[0])
+            terms = self._smooth_cache[key] = (
+                self.SmoothSoc(g_low, self.step)[0],
+                self.SmoothSoc(g_low, t_low)[0],
+                float(self.RecursiveMargin(t_low)),
+            )
+        return terms
 
     def SmoothSoc(self, power: float, t: float) -> tuple[float, float, float]:
         """(b(t), ∂b/∂t, ∂b/∂g) at the held computation power ``power`` [W].
@@ -73,8 +92,8 @@ class SmoothModel:
         """
         h = self.step
         soc, rate, dsoc, drate = self._SmoothNodes(power)
-        k = min(max(math.floor(t / h), 0), soc.size - 2)
-        a = min(max(t / h - k, 0.0), 1.0) if t <= (soc.size - 1) * h else t / h - k
+        k = min(max(math.floor(t / h), 0), len(soc) - 2)
+        a = min(max(t / h - k, 0.0), 1.0) if t <= (len(soc) - 1) * h else t / h - k
         h00, h10 = 2 * a**3 - 3 * a**2 + 1, a**3 - 2 * a**2 + a
         h01, h11 = -2 * a**3 + 3 * a**2, a**3 - a**2
         dh00, dh10 = 6 * a**2 - 6 * a, 3 * a**2 - 4 * a + 1
