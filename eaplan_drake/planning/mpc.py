@@ -571,16 +571,18 @@ class MissionProblem(GridSearch, SmoothModel):
         c_relaxed = self._Relaxed(u2_relaxed)
         if self.integer:
             return self._MapOnGrid(c_relaxed)
-        brackets = []
-        for grid, c in zip(self.table.parameter_grids, c_relaxed, strict=True):
-            i = int(np.clip(np.searchsorted(grid, c - 1e-9), 0, grid.size - 1))
-            brackets.append(sorted({float(grid[max(i - 1, 0)]), float(grid[i])}))
+        # the bracketing grid values (the grids ascend strictly: the same order as the indices)
+        brackets = [
+            [float(grid[i]) for i in indices]
+            for grid, indices in zip(
+                self.table.parameter_grids, self._Brackets(c_relaxed), strict=True
+            )
+        ]
         rows = [np.array(p) for p in itertools.product(*brackets)]
         rows.append(self.candidates[self.lowest_candidate])
         powers = [self._Row(r)[0] for r in rows]
-        if not self.integer:
-            rows.append(c_relaxed)
-            powers.append(self.table.power(c_relaxed))
+        rows.append(c_relaxed)  # not an integer table: the relaxed point is a candidate too
+        powers.append(self.table.power(c_relaxed))
         best = self.BestOf(rows, powers)
         # Local search from the rounded point: move c2 one grid step in any dimension (each
         # with its largest feasible c1) while that improves the plan.
