@@ -254,8 +254,8 @@ class ExcessRiskTable:
         fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
         if baseline_failure is not None:
             fail_0 = np.minimum(fail_0, float(baseline_failure))
-        mixed, weighted, none = self._Exposure(tau, float(tau_0))
-        search = _Search(self, tau, tau_0, lowest, fail_0, eps, (mixed, weighted, none))
+        mixed, weighted, _ = self._Exposure(tau, float(tau_0))  # e^(−Λ_p): negative margins only
+        search = _Search(self, tau, tau_0, lowest, fail_0, eps, mixed, weighted)
         # R falls as the margin grows: a plan that even m_p = m_0 does not keep within ε keeps
         # no margin within it (+inf, most plans late in a flight); the others are searched
         lo, width = np.zeros_like(tau_p), np.full_like(tau_p, m_0)
@@ -277,10 +277,10 @@ class _Search:
     once (the same operations on the same values). Every trial margin m_p is in [0, m_0], so
     M(u) = u m_p + (1 − u) m_0 is never negative: the branches of a negative margin drop out."""
 
-    def __init__(self, table, tau, tau_0, m_0, fail_0, eps, exposure):
+    def __init__(self, table, tau, tau_0, m_0, fail_0, eps, mixed, weighted):
         self.table, self.tau, self.tau_0, self.m_0 = table, tau, tau_0, m_0
         self.fail_0, self.eps = fail_0, eps
-        self.mixed, self.weighted, self.none = exposure
+        self.mixed, self.weighted = mixed, weighted
         self.rest = (1.0 - _U) * m_0[..., None]  # (1 − u) m_0 of M(u)
         self.offset = _ROW * self.mixed.shape[1]
         self.longer, self.level = tau >= tau_0, tau == tau_0
@@ -291,9 +291,16 @@ class _Search:
 
     def Rows(self, rows) -> "_Search":
         """The same search for the plans ``rows`` only."""
-        exposure = (self.mixed, self.weighted[rows], self.none[rows])
-        t = self.table
-        return _Search(t, self.tau[rows], self.tau_0, self.m_0, self.fail_0, self.eps, exposure)
+        return _Search(
+            self.table,
+            self.tau[rows],
+            self.tau_0,
+            self.m_0,
+            self.fail_0,
+            self.eps,
+            self.mixed,
+            self.weighted[rows],
+        )
 
     def Within(self, trials) -> np.ndarray:
         """R ≤ ε at the trial margins (rows, k) [-], all in [0, m_0]."""
