@@ -58,7 +58,7 @@ from eaplan_drake.field.route import (
 )
 from eaplan_drake.flight.coverage import PlanSource
 from eaplan_drake.flight.paths import Circle, Line
-from eaplan_drake.flight.stages import APPROACH, NUM_PRIMITIVES, Stage
+from eaplan_drake.flight.stages import APPROACH, NUM_PRIMITIVES, MakeStage, Stage
 
 __all__ = ["CONTINUED", "PACKAGED_FIELDS", "FieldCoverage", "FieldPath", "MakeFieldPlanSource"]
 
@@ -186,36 +186,24 @@ class FieldCoverage(PlanSource):
 
     # -- stages ------------------------------------------------------------------------------------
 
-    def _Stage(self, index, path, trigger, primitive, c1, entry, length, anchor) -> Stage:
-        return Stage(
-            index=index,
-            path=path,
-            trigger=(float(trigger[0]), float(trigger[1])),
-            primitive=primitive,
-            c1=float(c1),
-            entry=(float(entry[0]), float(entry[1])),
-            length=float(length),
-            anchor=tuple(float(a) for a in anchor),
-        )
-
     def _LegStages(self, leg, index: int, primitive: int, c1, anchor) -> list[Stage]:
         """The stages of one leg (a loop turn is two)."""
         start, end = np.asarray(leg.start), np.asarray(leg.end)
         if leg.radius == 0.0:
             path = Line(start, _Left(_Unit(end - start)), s=1.0, k_e=self.k_e)
-            return [self._Stage(index, path, end, primitive, c1, start, leg.length, anchor)]
+            return [MakeStage(index, path, end, primitive, c1, start, leg.length, anchor)]
         center = np.asarray(leg.center)
         path = Circle(center, leg.radius, s=-1.0 if leg.ccw else 1.0, k_e=self.k_e)
         if leg.angle <= math.pi + 1e-9:
-            return [self._Stage(index, path, end, primitive, c1, start, leg.length, anchor)]
+            return [MakeStage(index, path, end, primitive, c1, start, leg.length, anchor)]
         half = 0.5 * leg.angle * (1.0 if leg.ccw else -1.0)
         c, s = math.cos(half), math.sin(half)
         middle = center + np.array([[c, -s], [s, c]]) @ (start - center)
         second = (*anchor[:3], anchor[3] + 0.5)
         then = APPROACH if primitive == APPROACH else CONTINUED
         return [
-            self._Stage(index, path, middle, primitive, c1, start, 0.5 * leg.length, anchor),
-            self._Stage(index + 1, path, end, then, c1, middle, 0.5 * leg.length, second),
+            MakeStage(index, path, middle, primitive, c1, start, 0.5 * leg.length, anchor),
+            MakeStage(index + 1, path, end, then, c1, middle, 0.5 * leg.length, second),
         ]
 
     def _Heading(self, s: int) -> np.ndarray:

@@ -70,6 +70,7 @@ from eaplan_drake.flight.stages import (
     ArcTime,
     CheckedWind,
     LineSpeed,
+    MakeStage,
     Stage,
     StageTime,
     SurveyFraction,
@@ -467,16 +468,7 @@ class ZamboniCoverage(PlanSource):
             circle2 = Circle(W(top_u, eta_u - r2), r2, s=-1.0, k_e=k_e)
             items.append((circle2, W(top_u, eta_u - 2.0 * r2), 3, p_top_u, math.pi * r2))
         return tuple(
-            Stage(
-                index=base + prim,
-                path=path,
-                trigger=(float(trig[0]), float(trig[1])),
-                primitive=prim,
-                c1=float(c1),
-                entry=(float(entry[0]), float(entry[1])),
-                length=float(length),
-                anchor=(float(k), float(prim), float(eta_d), float(anchor_r2)),
-            )
+            MakeStage(base + prim, path, trig, prim, c1, entry, length, (k, prim, eta_d, anchor_r2))
             for path, trig, prim, entry, length in items
         )
 
@@ -559,16 +551,9 @@ class ZamboniCoverage(PlanSource):
         v = self.start - o
         nv = np.linalg.norm(v)
         entry = o + r2 * v / nv if nv > 0 else trig
-        first = Stage(
-            index=0,
-            path=approach,
-            trigger=(float(trig[0]), float(trig[1])),
-            primitive=APPROACH,
-            c1=float(c1),
-            entry=(float(entry[0]), float(entry[1])),
-            length=r2 * ArcAngle(approach, entry, trig),
-            anchor=(-1.0, float(APPROACH), eta_d0, 0.0),
-        )
+        length = r2 * ArcAngle(approach, entry, trig)
+        anchor = (-1.0, APPROACH, eta_d0, 0.0)
+        first = MakeStage(0, approach, trig, APPROACH, c1, entry, length, anchor)
         return (first,) + tuple(self._Build(self._Reps(0, eta_d0, c1), None))
 
     def _StagesAfter(self, index: int, anchor: tuple, c1: float) -> tuple[Stage, ...]:

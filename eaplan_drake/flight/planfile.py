@@ -40,7 +40,14 @@ from pydrake import symbolic as sym
 from eaplan_drake.files import ReadTextFile
 from eaplan_drake.flight.coverage import PlanSource
 from eaplan_drake.flight.paths import PathFunction
-from eaplan_drake.flight.stages import ANCHOR_SIZE, APPROACH, NUM_PRIMITIVES, PathLength, Stage
+from eaplan_drake.flight.stages import (
+    ANCHOR_SIZE,
+    APPROACH,
+    NUM_PRIMITIVES,
+    MakeStage,
+    PathLength,
+    Stage,
+)
 
 __all__ = [
     "PlanFileError",
@@ -469,18 +476,8 @@ class PlanFile(PlanSource):
                 ) from None
             proj = _Project(path, entry)
             length = PathLength(path, proj, trig)
-            stages.append(
-                Stage(
-                    index=i,
-                    path=path,
-                    trigger=(float(trig[0]), float(trig[1])),
-                    primitive=self._Primitive(i),
-                    c1=float(c1),
-                    entry=(float(proj[0]), float(proj[1])),
-                    length=float(length),
-                    anchor=(float(c1),) + (0.0,) * (ANCHOR_SIZE - 1),
-                )
-            )
+            anchor = (c1,) + (0.0,) * (ANCHOR_SIZE - 1)
+            stages.append(MakeStage(i, path, trig, self._Primitive(i), c1, proj, length, anchor))
             entry = trig
         return tuple(stages)
 

@@ -25,6 +25,7 @@ __all__ = [
     "CheckedWind",
     "GroundSpeed",
     "LineSpeed",
+    "MakeStage",
     "PathLeft",
     "PathLength",
     "Stage",
@@ -137,6 +138,21 @@ class StageGeometry(typing.NamedTuple):
 
 
 _TWO_PI = 2.0 * math.pi
+
+
+def MakeStage(index, path, trigger, primitive, c1, entry, length, anchor) -> Stage:
+    """A :class:`Stage` from points and numbers of any float type (numpy scalars or arrays of
+    two), stored as Python floats: trigger and entry [m], c1 [m²], length [m], anchor."""
+    return Stage(
+        index=index,
+        path=path,
+        trigger=(float(trigger[0]), float(trigger[1])),
+        primitive=primitive,
+        c1=float(c1),
+        entry=(float(entry[0]), float(entry[1])),
+        length=float(length),
+        anchor=tuple(float(a) for a in anchor),
+    )
 
 
 def PathLeft(stage: Stage, position=None) -> float:
