@@ -100,17 +100,16 @@ def MpcAgreement(states: int, solver: str, seed: int = 8):
         coverage_time_bounds=COVERAGE_TIMES,
         path_parameter_grid=grid,
     )
-    pb = policy.problem
     rng = np.random.default_rng(seed)
     memory = policy.InitialMemory()
     agree = total = failures = 0
     times = []
     while total < states:
         o = RandomPlannerObservation(rng, plan, grid, table.parameter_grids[0])
-        pb.SetObservation(o)
-        if not pb.Lowest().feasible:
+        step = policy.Step(o, memory)
+        if not step.Lowest().feasible:
             continue
-        expected = pb.BruteForce()
+        expected = step.BruteForce()
         t0 = time.perf_counter()
         d = policy.Plan(o, memory)
         times.append(time.perf_counter() - t0)

@@ -12,6 +12,7 @@ from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 from eaplan_drake.energy.battery import SocAfter
 from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.params import BatteryParams, CoverageParams, PlannerParams, VehicleParams
+from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
 from eaplan_drake.planning.mpc import MissionProblem
 from eaplan_drake.planning.planner import PlannerObservation
 from eaplan_drake.planning.policies import MakePolicy, MpcPolicy
@@ -78,17 +79,21 @@ def plan():
     return MakeCoveragePlan(CoverageParams(), VehicleParams(), c1=0.0, k_e=0.05)
 
 
+def _Step(pb, q, var, soc, t_rem):
+    return pb.StepFromState(q, var, soc, PERIOD, t_rem, [10.0])
+
+
 def test_soc_prediction_matches_the_rint_closed_form_for_a_constant_load(table):
     pb = _Problem(table, margin_sigmas=0.0)
     q = np.zeros(2 * ORDER + 1)
     q[0] = 31.0  # constant load, current parameters c2 = 10
-    pb.SetState(q, 0.0, 0.9, PERIOD, np.linspace(100.0, 400.0, GRID.size), [10.0])
+    step = _Step(pb, q, 0.0, 0.9, np.linspace(100.0, 400.0, GRID.size))
     for c2 in (2.0, 6.0, 10.0):
         load = 31.0 + table.power([c2]) - table.power([10.0])
         for t in (0.0, 1.0, 37.3, 250.0, 399.9):
             expected = SocAfter(0.9, load, t, BATTERY)
-            assert pb.SocAt(table.power([c2]), t) == pytest.approx(expected, abs=1e-12)
-            value, slope, _ = pb.SmoothSoc(table.power([c2]), t)
+            assert step.SocAt(table.power([c2]), t) == pytest.approx(expected, abs=1e-12)
+            value, slope, _ = step.smooth.Soc(table.power([c2]), t)
             assert value == pytest.approx(expected, abs=1e-12)
             assert slope == pytest.approx((SocAfter(0.9, load, 1.0, BATTERY) - 0.9), rel=1e-9)
 
@@ -103,53 +108,34 @@ def test_smooth_constraint_jacobian_matches_finite_differences(table, planner):
     policy = _Policy(table, **planner)
     pb, program = policy.problem, policy.program
     q, var, soc, t_rem = _RandomState(rng)
-    pb.SetState(q, var, soc, PERIOD, t_rem, [10.0])
+    step = _Step(pb, q, var, soc, t_rem)
     for x in ([0.3, 0.6], [0.71, 0.05], [0.52, 0.93]):
         x = np.array(x)
-        J = ExtractGradient(program._Constraints(InitializeAutoDiff(x)))
+        J = ExtractGradient(program.Constraints(step, InitializeAutoDiff(x)))
         for i in range(2):
             e = np.zeros(2)
             e[i] = 1e-6
-            fd = (program._Constraints(x + e) - program._Constraints(x - e)) / 2e-6
+            fd = (program.Constraints(step, x + e) - program.Constraints(step, x - e)) / 2e-6
             np.testing.assert_allclose(J[:, i], fd, rtol=1e-4, atol=1e-5)
-
-
-def test_fault_reserve_shrinks_with_the_remaining_time_and_keeps_its_slope(table):
-    pb = _Problem(table, margin_floor=0.02, fault_reserve=0.12, fault_reserve_time=300.0)
-    q = np.array([33.0, 2.0, 0.5, 1.0, 0.0, 0.2, 0.1])
-    pb.SetState(q, 0.0, 0.9, PERIOD, np.full(GRID.size, 60.0), [10.0])  # σ = 0: no growth
-    t = np.array([0.0, 75.0, 150.0, 299.0, 300.0, 800.0])
-    np.testing.assert_allclose(pb.FaultReserve(t), 0.12 * np.minimum(1.0, t / 300.0), atol=1e-15)
-    np.testing.assert_allclose(pb.Margin(t), 0.02 + 0.12 * np.minimum(1.0, t / 300.0), atol=1e-15)
-    assert pb.MarginSlope(150.0) == pytest.approx(0.12 / 300.0, rel=1e-12)
-    assert pb.MarginSlope(450.0) == 0.0
-    held = _Problem(table, margin_floor=0.02, fault_reserve=0.12, fault_reserve_time=0.0)
-    held.SetState(q, 0.0, 0.9, PERIOD, np.full(GRID.size, 60.0), [10.0])
-    np.testing.assert_allclose(held.Margin(t), 0.14, atol=1e-15)
-    # The margin never grows as the survey goes on, so a plan feasible now stays feasible.
-    assert np.all(np.diff(pb.Margin(np.linspace(0.0, 900.0, 91))) >= 0.0)
 
 
 def test_a_shrinking_fault_reserve_never_lowers_the_quality(table):
     rng = np.random.default_rng(5)
+    held = _Problem(table, fault_reserve_time=0.0)
+    shrinking = _Problem(table, fault_reserve_time=300.0)
     for _ in range(30):
         q, var, soc, t_rem = _RandomState(rng)
-        held = _Problem(table, fault_reserve_time=0.0)
-        shrinking = _Problem(table, fault_reserve_time=300.0)
-        held.SetState(q, var, soc, PERIOD, t_rem, [10.0])
-        shrinking.SetState(q, var, soc, PERIOD, t_rem, [10.0])
-        assert shrinking.BruteForce().quality >= held.BruteForce().quality - 1e-12
+        low = _Step(held, q, var, soc, t_rem).BruteForce().quality
+        assert _Step(shrinking, q, var, soc, t_rem).BruteForce().quality >= low - 1e-12
 
 
 def test_plenty_of_battery_gives_the_highest_plan_and_none_the_lowest_flagged(table):
     pb = _Problem(table)
     q = np.array([33.0, 2.0, 0.5, 1.0, 0.0, 0.2, 0.1])
-    pb.SetState(q, 1e-4, 1.0, PERIOD, np.full(GRID.size, 60.0), [10.0])
-    best = pb.BruteForce()
+    best = _Step(pb, q, 1e-4, 1.0, np.full(GRID.size, 60.0)).BruteForce()
     assert best.feasible and best.path_parameter == 0.0
     assert best.computation_parameters[0] == 10.0 and best.quality == 1.0
-    pb.SetState(q, 1e-4, 0.31, PERIOD, np.full(GRID.size, 60.0), [10.0])
-    low = pb.BruteForce()
+    low = _Step(pb, q, 1e-4, 0.31, np.full(GRID.size, 60.0)).BruteForce()
     assert not low.feasible
     assert low.path_parameter == -1000.0 and low.computation_parameters[0] == 2.0
 
@@ -164,26 +150,26 @@ def test_brute_force_is_the_best_feasible_plan_and_keeps_the_margin(table):
     checked = 0
     for _ in range(40):
         q, var, soc, t_rem = _RandomState(rng)
-        pb.SetState(q, var, soc, PERIOD, t_rem, [10.0])
-        d = pb.BruteForce()
+        step = _Step(pb, q, var, soc, t_rem)
+        d = step.BruteForce()
         if not d.feasible:
             continue
         checked += 1
         power = table.power(d.computation_parameters)
-        end = pb.SocAt(power, t_rem[d.path_index])
+        end = step.SocAt(power, t_rem[d.path_index])
         # m = floor + fault reserve (shrinking over the last 300 s) + 3 σ of the drain error over
         # t_rem (SoC per W·s at y0 = α̂0).
         s_b = BATTERY.k_b / (BATTERY.capacity * math.sqrt(V * V - 4 * R * q[0]))
         t = t_rem[d.path_index]
         margin = 0.03 + 0.05 * min(1.0, t / 300.0) + 3.0 * s_b * t * math.sqrt(var)
         assert end >= reserve + margin - 1e-12 and d.margin == pytest.approx(margin, rel=1e-12)
-        assert pb.RecursiveSlack(power) >= 0.0  # (2): the lowest plan after one step completes
+        assert step.RecursiveSlack(power) >= 0.0  # (2): the lowest plan after one step completes
         # No feasible plan has a higher quality (enumerated here independently).
         for c2 in table.parameter_grids[0]:
             for j in range(GRID.size):
                 p = table.power([c2])
-                ok = pb.SocAt(p, t_rem[j]) >= reserve + pb.Margin(t_rem[j])
-                ok = ok and pb.RecursiveSlack(p) >= 0.0
+                ok = step.SocAt(p, t_rem[j]) >= reserve + step.margin.At(t_rem[j])
+                ok = ok and step.RecursiveSlack(p) >= 0.0
                 if ok:
                     assert pb.Quality(j, (c2 - 2.0) / 8.0) <= d.quality + 1e-12
     assert checked >= 15
@@ -194,12 +180,9 @@ def test_more_uncertainty_or_less_charge_never_raises_the_quality(table):
     pb = _Problem(table)
     for _ in range(20):
         q, var, soc, t_rem = _RandomState(rng)
-        pb.SetState(q, var, soc, PERIOD, t_rem, [10.0])
-        base = pb.BruteForce()
-        pb.SetState(q, var * 100.0, soc, PERIOD, t_rem, [10.0])
-        assert pb.BruteForce().quality <= base.quality + 1e-12
-        pb.SetState(q, var, soc - 0.05, PERIOD, t_rem, [10.0])
-        assert pb.BruteForce().quality <= base.quality + 1e-12
+        base = _Step(pb, q, var, soc, t_rem).BruteForce()
+        assert _Step(pb, q, var * 100.0, soc, t_rem).BruteForce().quality <= base.quality + 1e-12
+        assert _Step(pb, q, var, soc - 0.05, t_rem).BruteForce().quality <= base.quality + 1e-12
 
 
 @pytest.mark.slow
@@ -235,14 +218,14 @@ def test_failed_solve_keeps_c1_and_takes_the_best_admissible_c2(table):
             break
         q, var, soc, t_rem = _RandomState(rng)
         d = policy.Plan(_Observation(q, var, soc, t_rem, c1=-500.0), policy.InitialMemory())
-        if d.success or not policy.problem.Lowest().feasible:
+        step = policy.Step(_Observation(q, var, soc, t_rem, c1=-500.0), policy.InitialMemory())
+        if d.success or not step.Lowest().feasible:
             continue
         seen += 1
-        pb = policy.problem
         ok_at = [
             c2
             for c2 in table.parameter_grids[0]
-            if pb.FeasibleRow(table.power([c2]))[0][GRID.tolist().index(-500.0)]
+            if step.FeasibleRow(table.power([c2]))[0][GRID.tolist().index(-500.0)]
         ]
         if ok_at:
             assert d.path_parameter == -500.0
@@ -260,11 +243,12 @@ def test_the_prediction_is_bounded_by_the_longest_legal_flight(table):
     for reserve in ("fixed", "risk"):
         pb = _Problem(table, reserve=reserve)
         q = np.concatenate(([30.0], np.zeros(2 * ORDER)))
-        pb.SetState(q, 1e-4, 0.9, PERIOD, np.full(GRID.size, 1e9), [10.0])
-        rows = 2 * (math.ceil(MAX_TIME_LIMIT / pb.step) + 2) + 1
-        assert pb.f_half.size <= rows and pb.f_half.nbytes <= rows * 8
-        assert not pb.Lowest().feasible
-        assert pb.BruteForce().path_parameter == GRID[0]  # infeasible: the lowest plan
+        step = _Step(pb, q, 1e-4, 0.9, np.full(GRID.size, 1e9))
+        rows = 2 * (math.ceil(MAX_TIME_LIMIT / pb.step_length) + 2) + 1
+        f_half = step.prediction.f_half
+        assert f_half.size <= rows and f_half.nbytes <= rows * 8
+        assert not step.Lowest().feasible
+        assert step.BruteForce().path_parameter == GRID[0]  # infeasible: the lowest plan
 
 
 def test_a_decision_determined_without_a_solve_is_the_mapped_nlp_answer(table):
@@ -276,14 +260,14 @@ def test_a_decision_determined_without_a_solve_is_the_mapped_nlp_answer(table):
     determined = undetermined = 0
     for _ in range(120):
         q, var, soc, t_rem = _RandomState(rng)
-        pb.SetObservation(_Observation(q, var, soc, t_rem))
-        d = pb.DeterminedDecision()
+        step = pb.Step(_Observation(q, var, soc, t_rem))
+        d = DeterminedDecision(step)
         if d is None:
-            undetermined += pb.Lowest().feasible
+            undetermined += step.Lowest().feasible
             continue
-        result = program.Solve(np.zeros(program.variables.size))
+        result = program.Solve(step, np.zeros(program.variables.size))
         assert result.is_success()
-        mapped = pb.MapRelaxed(result.get_x_val()[1:])
+        mapped = MapRelaxed(step, result.get_x_val()[1:])
         assert (mapped.path_index, mapped.candidate_index) == (d.path_index, d.candidate_index)
         determined += 1
     assert determined >= 30 and undetermined >= 1, (determined, undetermined)
@@ -298,13 +282,15 @@ def test_the_free_response_of_fewer_points_is_read_from_the_longest_kept(table):
     rng = np.random.default_rng(5)
     q, var, soc, t_rem = _RandomState(rng)
     for shrink in (0.0, 7.0, 30.0, 200.0):
-        pb.SetObservation(_Observation(q, var, soc, np.maximum(t_rem - shrink, 1.0)))
-        rows = FreeResponseMatrix(ORDER, PERIOD, 0.5 * pb.step, 2 * pb.n + 1)
-        assert np.array_equal(pb.f_half, rows @ q)
+        step = pb.Step(_Observation(q, var, soc, np.maximum(t_rem - shrink, 1.0)))
+        n = step.prediction.n
+        rows = FreeResponseMatrix(ORDER, PERIOD, 0.5 * pb.step_length, 2 * n + 1)
+        assert np.array_equal(step.prediction.f_half, rows @ q)
 
 
 def test_pchip_at_one_point_equals_the_array_evaluation():
-    from eaplan_drake.planning.relaxation import _Pchip, _PchipSlopes
+    from eaplan_drake.planning.interpolation import Pchip as _Pchip
+    from eaplan_drake.planning.interpolation import PchipSlopes as _PchipSlopes
 
     rng = np.random.default_rng(3)
     for n in (1, 2, 5, 21):

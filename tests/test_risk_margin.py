@@ -15,7 +15,7 @@ from eaplan_drake.params import (
     PlannerParams,
     VehicleParams,
 )
-from eaplan_drake.planning.policies import MakePolicy
+from eaplan_drake.planning.policies import MakePolicy, RiskMemory
 from eaplan_drake.planning.risk import (
     EmpiricalDrops,
     ExcessRiskBounds,
@@ -159,7 +159,6 @@ def _RiskPolicy(table, **planner):
 
 def test_every_risk_decision_keeps_its_excess_risk_within_eps(table, plan):
     policy = _RiskPolicy(table, risk=0.05)
-    pb = policy.problem
     exact = FaultModelFromParams(FaultModelParams())
     rng = np.random.default_rng(7)
     initial = policy.InitialMemory()
@@ -168,22 +167,24 @@ def test_every_risk_decision_keeps_its_excess_risk_within_eps(table, plan):
     checked = 0
     while checked < 40:
         o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
-        pb.SetObservation(o)
-        if not pb.Lowest().feasible:
+        step = policy.Step(o, memory)  # a fresh mission: no drop yet, budget ε/2, no anchor
+        if not step.Lowest().feasible:
             continue
-        d = policy.Plan(o, memory)  # a fresh mission: no drop yet, budget ε/2, no anchor
+        assert step.risk_budget == policy.Budget(0)
+        d = policy.Plan(o, memory)
         memory = np.concatenate((d.memory[:warm], initial[warm:]))
         j = int(np.flatnonzero(GRID == d.path_parameter)[0])
-        floor = pb.Margin(pb.t_rem[j]) - pb.FaultReserve(pb.t_rem[j])
-        m_p = d_end = pb.SocAt(float(table.power(d.computation_parameters)), pb.t_rem[j])
-        m_p = d_end - pb.battery.reserve_soc - floor
-        low = pb.Lowest()
+        t_rem, margin = step.t_rem, step.margin
+        floor = margin.At(t_rem[j]) - margin.FaultReserve(t_rem[j])
+        d_end = step.SocAt(float(table.power(d.computation_parameters)), t_rem[j])
+        m_p = d_end - BatteryParams().reserve_soc - floor
+        low = step.Lowest()
         m_0 = (
             low.end_soc
-            - pb.battery.reserve_soc
-            - (pb.Margin(pb.t_rem[0]) - pb.FaultReserve(pb.t_rem[0]))
+            - BatteryParams().reserve_soc
+            - (margin.At(t_rem[0]) - margin.FaultReserve(t_rem[0]))
         )
-        _, upper = ExcessRiskBounds(exact, pb.t_rem[j], m_p, pb.t_rem[0], m_0, cells=256)
+        _, upper = ExcessRiskBounds(exact, t_rem[j], m_p, t_rem[0], m_0, cells=256)
         assert upper <= policy.Budget(0) + 0.01, (checked, upper)  # up to the table's step
         checked += 1
 
@@ -201,25 +202,31 @@ def test_a_lower_baseline_never_lowers_the_required_margin():
 
 def test_the_mission_budget_is_halved_after_each_drop_and_anchored_there(table, plan):
     policy = _RiskPolicy(table, risk=0.04)
-    pb = policy.problem
+    h = policy.problem.step_length
     assert [policy.Budget(k) for k in range(3)] == [0.02, 0.01, 0.005]
     rng = np.random.default_rng(3)
     while True:
         o = RandomPlannerObservation(rng, plan, GRID, table.parameter_grids[0])
-        pb.SetObservation(o)
-        if pb.Lowest().feasible and o.soc > 0.5:
+        step = policy.Step(o, policy.InitialMemory())
+        if step.Lowest().feasible and o.soc > 0.5:
             break
     d = policy.Plan(o, policy.InitialMemory())
-    predicted, drops, anchor_end, _ = d.memory[-4:]
-    assert drops == 0 and pb.risk_budget == 0.02
-    assert anchor_end == pytest.approx(o.time + pb.t_rem[0])
-    steady = dc.replace(o, time=o.time + pb.step, soc=predicted)
+    tail = RiskMemory(d.memory[-4:])
+    assert tail.drops == 0 and step.risk_budget == 0.02
+    assert tail.anchor_end == pytest.approx(o.time + step.t_rem[0])
+    anchor_end = tail.anchor_end
+    steady = dc.replace(o, time=o.time + h, soc=tail.predicted_soc)
+    assert policy.Step(steady, d.memory).risk_budget == 0.02
     d = policy.Plan(steady, d.memory)
-    assert d.memory[-3] == 0 and d.memory[-2] == anchor_end  # the anchor holds
-    dropped = dc.replace(o, time=o.time + 2 * pb.step, soc=d.memory[-4] - 0.05)
+    tail = RiskMemory(d.memory[-4:])
+    assert tail.drops == 0 and tail.anchor_end == anchor_end  # the anchor holds
+    dropped = dc.replace(o, time=o.time + 2 * h, soc=tail.predicted_soc - 0.05)
+    step = policy.Step(dropped, d.memory)
+    assert step.risk_budget == 0.01  # the next budget, anchored anew
     d = policy.Plan(dropped, d.memory)
-    assert d.memory[-3] == 1 and pb.risk_budget == 0.01  # the next budget, anchored anew
-    assert d.memory[-2] == pytest.approx(dropped.time + pb.t_rem[0])
+    tail = RiskMemory(d.memory[-4:])
+    assert tail.drops == 1
+    assert tail.anchor_end == pytest.approx(dropped.time + step.t_rem[0])
 
 
 @pytest.mark.slow

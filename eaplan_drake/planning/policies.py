@@ -32,10 +32,12 @@ import math
 import time
 
 import numpy as np
+from pydrake.common.containers import namedview
 
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
-from eaplan_drake.planning.mpc import MissionProblem
+from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
+from eaplan_drake.planning.mpc import MissionProblem, MissionStep
 from eaplan_drake.planning.paper import Planner
 from eaplan_drake.planning.planner import PlannerDecision, PlannerObservation, PlannerPolicy
 from eaplan_drake.planning.relaxation import MissionProgram
@@ -53,6 +55,8 @@ __all__ = [
     "MakeStaticPolicy",
     "MpcPolicy",
     "PaperPolicy",
+    "RiskMemory",
+    "UNSET",
     "StaticPolicy",
 ]
 
@@ -83,7 +87,7 @@ def _Prediction(problem: MissionProblem, plan) -> dict:
     predicts: its end SoC and the SoC required at the end (reserve + its margin m(t_rem))."""
     return {
         "predicted_end_soc": float(plan.end_soc),
-        "required_end_soc": float(problem.battery.reserve_soc) + float(plan.margin),
+        "required_end_soc": problem.reserve_soc + float(plan.margin),
     }
 
 
@@ -142,11 +146,23 @@ is a drop: the policy opens the next, halved, risk budget anchored at that state
 assumes, :mod:`eaplan_drake.planning.risk`)."""
 
 
+RiskMemory = namedview("RiskMemory", ["predicted_soc", "drops", "anchor_end", "anchor_margin"])
+"""The tail of :class:`MpcPolicy`'s memory with ``reserve: risk`` (after the warm start):
+``predicted_soc`` b̂ [-], the SoC the last step predicted for now (:data:`UNSET` before the first
+step); ``drops``, the drops detected so far; ``anchor_end`` [s], the time at which the lowest plan
+of the state where the current budget opened ends (:data:`UNSET` until a step sets it: at the
+first step, and after each drop); ``anchor_margin`` m_a [-], that plan's fault-free margin."""
+
+UNSET = -1.0
+"""The value of a :data:`RiskMemory` entry nothing has set yet (times and SoCs are ≥ 0)."""
+
+
 class MpcPolicy(PlannerPolicy):
     """The mission-feasible MPC (:mod:`eaplan_drake.planning.mpc`): the NLP relaxation solved with
-    IPOPT
-    (iterations bounded, never wall time), mapped exactly onto the grids; memory: the relaxed
-    solution [c̃1, c̃2] (the next warm start)."""
+    IPOPT (iterations bounded, never wall time), mapped exactly onto the grids.
+
+    Memory: the relaxed solution [c̃1, c̃2] (the next warm start), then, with ``reserve: risk``,
+    the :data:`RiskMemory`."""
 
     name = "mpc"
 
@@ -157,11 +173,15 @@ class MpcPolicy(PlannerPolicy):
         self._risk = p.reserve == "risk"
         self._falls_back = self._risk and p.after_drop == "lowest"
         self._budget = float(p.risk) if self._risk else 0.0
+        self._warm_size = self.program.variables.size
 
     def InitialMemory(self) -> np.ndarray:
-        memory = np.zeros(self.program.variables.size)
-        if self._risk:  # + [SoC predicted for the next step, drops seen, anchor end, margin]
-            memory = np.concatenate((memory, [-1.0, 0.0, -1.0, 0.0]))
+        memory = np.zeros(self._warm_size)
+        if self._risk:
+            tail = RiskMemory.Zero()
+            tail.predicted_soc, tail.drops, tail.anchor_end = UNSET, 0.0, UNSET
+            tail.anchor_margin = 0.0
+            memory = np.concatenate((memory, tail[:]))
         return memory
 
     def Budget(self, drops: int) -> float:
@@ -169,48 +189,62 @@ class MpcPolicy(PlannerPolicy):
         (``reserve: risk``); summed over any number of drops it is at most ε."""
         return self._budget / 2.0 ** (int(drops) + 1)
 
-    def Plan(self, observation, memory) -> PlannerDecision:
+    def Step(self, observation, memory) -> MissionStep:
+        """The :class:`~eaplan_drake.planning.mpc.MissionStep` the policy plans on for this
+        observation and memory (with ``reserve: risk``: the budget of the drops detected so far,
+        and the anchor where it opened)."""
+        return self._Step(observation, memory)[0]
+
+    def _Step(self, observation, memory):
+        """(the step, the updated :data:`RiskMemory` or None)."""
+        o, pb = observation, self.problem
         if not self._risk:
-            return self._Plan(observation, memory)
+            return pb.Step(o), None
+        tail = RiskMemory(np.array(memory[self._warm_size :], dtype=float))
+        # (UNSET, or a prediction below empty: nothing to compare with)
+        if tail.predicted_soc >= 0.0 and o.soc < tail.predicted_soc - FALLBACK_DROP:
+            # a drop: a new, halved budget, anchored at this state
+            tail.drops, tail.anchor_end = tail.drops + 1.0, UNSET
+        anchor = None
+        if tail.anchor_end >= 0.0:
+            anchor = (tail.anchor_end - float(o.time), tail.anchor_margin)
+        return pb.Step(o, self.Budget(tail.drops), anchor), tail
+
+    def Plan(self, observation, memory) -> PlannerDecision:
         o, pb = observation, self.problem
         if not _Finite(o):
             return _InvalidInput(pb, memory)
-        predicted, drops, anchor_end, anchor_margin = (float(v) for v in memory[-4:])
-        if predicted >= 0.0 and o.soc < predicted - FALLBACK_DROP:
-            drops, anchor_end = drops + 1.0, -1.0  # a new budget, anchored at this state
-        if self._falls_back and drops > 0.0:
-            pb.SetObservation(o)
-            low = pb.Lowest()
+        step, tail = self._Step(o, memory)
+        warm = memory[: self._warm_size]
+        if tail is None:
+            return self._Plan(o, warm, step)
+        if self._falls_back and tail.drops > 0.0:
+            low = step.Lowest()
             d = PlannerDecision(
                 low.path_parameter,
                 low.computation_parameters,
-                memory[:-4],
+                warm,
                 True,
-                bool(low.feasible) or pb.NominallyFeasible(),
+                bool(low.feasible) or step.NominallyFeasible(),
                 "after a SoC drop: the lowest plan to the end",
                 **_Prediction(pb, low),
             )
         else:
-            anchor = None if anchor_end < 0.0 else (anchor_end - float(o.time), anchor_margin)
-            pb.SetRiskBudget(self.Budget(drops), anchor)
-            d = self._Plan(o, memory[:-4])
-            if anchor_end < 0.0:
-                tau_0, m_0 = pb.lowest_risk_state
-                anchor_end, anchor_margin = float(o.time) + tau_0, m_0
+            d = self._Plan(o, warm, step)
+            if tail.anchor_end < 0.0:
+                tau_0, m_0 = step.margin.lowest_state
+                tail.anchor_end, tail.anchor_margin = float(o.time) + tau_0, m_0
         power = float(pb.table.power(np.asarray(d.computation_parameters, dtype=float)))
-        state = [float(pb.SocAt(power, pb.step)), drops, anchor_end, anchor_margin]
-        d.memory = np.concatenate((d.memory, state))
+        tail.predicted_soc = float(step.SocAt(power, pb.step_length))
+        d.memory = np.concatenate((d.memory, tail[:]))
         return d
 
-    def _Plan(self, observation, memory) -> PlannerDecision:
+    def _Plan(self, observation, memory, step) -> PlannerDecision:
         o = observation
         pb = self.problem
-        if not _Finite(o):
-            return _InvalidInput(pb, memory)
-        pb.SetObservation(o)
-        low = pb.Lowest()
+        low = step.Lowest()
         if not low.feasible:
-            nominal = pb.NominallyFeasible()
+            nominal = step.NominallyFeasible()
             return PlannerDecision(
                 low.path_parameter,
                 low.computation_parameters,
@@ -222,7 +256,7 @@ class MpcPolicy(PlannerPolicy):
                 else "infeasible: the lowest plan ends below reserve + margin",
                 **_Prediction(pb, low),
             )
-        determined = pb.DeterminedDecision()
+        determined = DeterminedDecision(step)
         if determined is not None:
             # Every relaxed answer maps to this plan (the mapping reads c̃2 only through its
             # bracketing grid points): no solve can change it, so none is run. This also
@@ -241,7 +275,7 @@ class MpcPolicy(PlannerPolicy):
         # then from the middle of the box.
         for start in (memory, np.zeros_like(memory), np.full_like(memory, 0.5)):
             try:
-                result = self.program.Solve(start)
+                result = self.program.Solve(step, start)
                 ok = result.is_success()
                 status = result.get_solution_result().name
                 x = result.get_x_val() if ok else None
@@ -253,7 +287,7 @@ class MpcPolicy(PlannerPolicy):
         if ok and not np.all(np.isfinite(x)):
             ok, status = False, "non-finite solution"
         if not ok:
-            d = pb.KeepPathParameter(o.path_parameter)
+            d = step.KeepPathParameter(o.path_parameter)
             return PlannerDecision(
                 d.path_parameter,
                 d.computation_parameters,
@@ -264,7 +298,7 @@ class MpcPolicy(PlannerPolicy):
                 solve_time,
                 **_Prediction(pb, d),
             )
-        d = pb.MapRelaxed(x[1:])
+        d = MapRelaxed(step, x[1:])
         return PlannerDecision(
             d.path_parameter,
             d.computation_parameters,
@@ -290,22 +324,22 @@ class GreedyPolicy(PlannerPolicy):
         pb = self.problem
         if not _Finite(o):
             return _InvalidInput(pb, memory)
-        pb.SetObservation(o)
-        reserve = float(pb.battery.reserve_soc)
+        step = pb.Step(o)
+        reserve = pb.reserve_soc
         j_now = int(np.clip(np.searchsorted(pb.grid, o.path_parameter + 1e-9) - 1, 0, None))
         # c2: the best candidate whose plan at the current c1 ends at or above the reserve.
         order = np.lexsort((-pb.candidate_power, -pb.candidate_u2))
         k = pb.lowest_candidate
         for i in order:
-            if pb.SocAt(float(pb.candidate_power[i]), pb.t_rem[j_now]) >= reserve:
+            if step.SocAt(float(pb.candidate_power[i]), step.t_rem[j_now]) >= reserve:
                 k = int(i)
                 break
         # c1: towards the largest grid value that ends at or above the reserve, by at most δ1.
-        end = pb.SocAt(float(pb.candidate_power[k]), pb.t_rem)
+        end = step.SocAt(float(pb.candidate_power[k]), step.t_rem)
         hits = np.flatnonzero(end >= reserve)
         target = float(pb.grid[hits[-1]]) if hits.size else float(pb.grid[0])
-        step = float(pb.params.path_parameter_step)
-        c1 = min(max(target, o.path_parameter - step), o.path_parameter + step)
+        delta = float(pb.params.path_parameter_step)
+        c1 = min(max(target, o.path_parameter - delta), o.path_parameter + delta)
         feasible = bool(hits.size)
         return PlannerDecision(c1, pb.candidates[k].copy(), memory, True, feasible, "")
 

@@ -141,22 +141,21 @@ def BruteForceAgreement(
     """(agreeing, total) over ``states`` random feasible planner states
     (:func:`RandomPlannerObservation`): how often an mpc-like ``policy``'s first move (its
     decision, carrying its memory from state to state as in flight) equals the exact discrete
-    optimum of its problem (``policy.problem.BruteForce()``); states whose lowest plan is
-    infeasible are skipped. Only the warm start is carried: the states are unrelated, so the
-    rest of the memory (the risk reserve's drop count and anchor) starts afresh for each, and the
-    optimum is enumerated with the budget the policy has just used."""
+    optimum of the step it plans on (``policy.Step(o, memory).BruteForce()``); states whose
+    lowest plan is infeasible are skipped. Only the warm start is carried: the states are
+    unrelated, so the rest of the memory (the risk reserve's drop count and anchor) starts
+    afresh for each."""
     initial = policy.InitialMemory()
     warm = policy.program.variables.size
     memory = initial
     agree = total = 0
     while total < states:
         o = RandomPlannerObservation(rng, plan, path_parameter_grid, computation_values)
-        problem = policy.problem
-        problem.SetObservation(o)
-        if not problem.Lowest().feasible:
+        step = policy.Step(o, memory)
+        if not step.Lowest().feasible:
             continue
         d = policy.Plan(o, memory)
-        expected = problem.BruteForce()
+        expected = step.BruteForce()
         memory = np.concatenate((d.memory[:warm], initial[warm:]))
         total += 1
         agree += d.path_parameter == expected.path_parameter and np.array_equal(

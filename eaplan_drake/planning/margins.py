@@ -1,0 +1,213 @@
+"""The margin m(t) [-] the mpc asks a plan with t [s] of survey left to keep above the reserve
+b_res (:doc:`/planner`, Eq. (3)), one model per kind of reserve:
+
+    m(t) = m_floor + m_fault(t) + z s_b σ_α0 t,
+
+- :class:`FloorMargin`: m_floor alone (no fault reserve, no uncertainty): the check of "nominally
+  feasible";
+- :class:`FixedReserveMargin`: m_fault(t) = R_f (``planner.reserve: fixed``, τ_f = 0);
+- :class:`TimedReserveMargin`: m_fault(t) = R_f min(1, t/τ_f) (``reserve: fixed``, τ_f > 0);
+- :class:`RiskMargin`: m_fault(t) = m_req(t), the margin that keeps a plan's excess risk within
+  the step's budget ε_k (``reserve: risk``, :mod:`eaplan_drake.planning.risk_margin`), built for one
+  planner step by :class:`RiskReserve`.
+
+Each answers m(t) (:meth:`Margin.At`), dm/dt (:meth:`Margin.Slope`) and the margin the
+recursive-feasibility condition (2) asks of the lowest plan (:meth:`Margin.Recursive`). A margin
+is built for one planner step (its uncertainty rate z s_b σ_α0 [1/s] is the step's).
+"""
+
+import numpy as np
+
+from eaplan_drake.params import PlannerParams
+from eaplan_drake.planning.interpolation import Pchip, PchipSlopes
+from eaplan_drake.planning.risk_margin import (
+    UNREACHABLE_MARGIN,
+    ExposureBucket,
+    FaultModelFromParams,
+    RiskTable,
+)
+
+__all__ = [
+    "FixedReserveMargin",
+    "FloorMargin",
+    "Margin",
+    "RiskMargin",
+    "RiskReserve",
+    "StepMargin",
+    "TimedReserveMargin",
+]
+
+
+class Margin:
+    """m(t) = m_floor + m_fault(t) + rate · t [-]; a subclass defines the fault reserve m_fault.
+
+    Args:
+        floor: m_floor [-] (``planner.margin_floor``).
+        rate: z s_b σ_α0 [1/s], the growth of the drain error with the time left.
+    """
+
+    def __init__(self, floor: float, rate: float):
+        self.floor = float(floor)
+        self.rate = float(rate)
+
+    def FaultReserve(self, t):
+        """m_fault(t) [-] at the remaining times t [s] (an array)."""
+        raise NotImplementedError
+
+    def FaultReserveSlope(self, t: float) -> float:
+        """dm_fault/dt [1/s] at the remaining time t [s] (right derivative at a kink)."""
+        raise NotImplementedError
+
+    def At(self, t):
+        """m(t) [-] for the remaining time t [s]."""
+        t = np.asarray(t, dtype=float)
+        return self.floor + self.FaultReserve(t) + self.rate * t
+
+    def Slope(self, t: float) -> float:
+        """dm/dt [1/s] at the remaining time t [s] (right derivative at a kink)."""
+        return self.rate + self.FaultReserveSlope(t)
+
+    def Recursive(self, t):
+        """The margin (2) asks of the lowest plan after this step [-]: m(t)."""
+        return self.At(t)
+
+
+class FloorMargin(Margin):
+    """m(t) = m_floor: neither the uncertainty term nor a fault reserve."""
+
+    def __init__(self, floor: float):
+        super().__init__(floor, 0.0)
+
+    def FaultReserve(self, t):
+        return np.zeros_like(t)
+
+    def FaultReserveSlope(self, t: float) -> float:
+        return 0.0
+
+
+class FixedReserveMargin(Margin):
+    """m_fault(t) = R_f [-] whatever the time left (``fault_reserve_time`` = 0)."""
+
+    def __init__(self, floor: float, rate: float, reserve: float):
+        super().__init__(floor, rate)
+        self.reserve = float(reserve)
+
+    def FaultReserve(self, t):
+        return np.full_like(t, self.reserve)
+
+    def FaultReserveSlope(self, t: float) -> float:
+        return 0.0
+
+
+class TimedReserveMargin(Margin):
+    """m_fault(t) = R_f min(1, t/τ_f) [-]: faults come at a rate, so the reserve shrinks with the
+    exposure left (``fault_reserve`` R_f, ``fault_reserve_time`` τ_f > 0 [s])."""
+
+    def __init__(self, floor: float, rate: float, reserve: float, reserve_time: float):
+        super().__init__(floor, rate)
+        self.reserve = float(reserve)
+        self.reserve_time = float(reserve_time)
+
+    def FaultReserve(self, t):
+        return self.reserve * np.minimum(1.0, np.maximum(t, 0.0) / self.reserve_time)
+
+    def FaultReserveSlope(self, t: float) -> float:
+        return self.reserve / self.reserve_time if t < self.reserve_time else 0.0
+
+
+class RiskMargin(Margin):
+    """m_fault(t) = m_req(t) [-]: the risk margin of one planner step, the PCHIP interpolant of its
+    values at the step's remaining times (constant beyond them; :class:`RiskReserve` builds it).
+
+    (2) asks only m_floor + rate · t of the lowest plan: its own fault risk is the world's, what
+    every policy falls back to.
+
+    Attributes:
+        times: the remaining times [s] of the nodes (ascending).
+        margins: m_req at ``times`` [-].
+        lowest_state: (τ_0 [s], m_0 [-]): the lowest plan's remaining time and fault-free margin
+            the excess risk is measured against.
+        budget: ε_k [-], the excess risk the step may spend.
+    """
+
+    def __init__(self, floor, rate, times, margins, lowest_state, budget):
+        super().__init__(floor, rate)
+        self.times = np.asarray(times, dtype=float)
+        self.margins = np.asarray(margins, dtype=float)
+        self.slopes = PchipSlopes(self.times, self.margins)
+        self.lowest_state = (float(lowest_state[0]), float(lowest_state[1]))
+        self.budget = float(budget)
+
+    def FaultReserve(self, t):
+        return Pchip(self.times, self.margins, self.slopes, t)[0]
+
+    def FaultReserveSlope(self, t: float) -> float:
+        return float(Pchip(self.times, self.margins, self.slopes, t)[1])
+
+    def Recursive(self, t):
+        return self.floor + self.rate * np.asarray(t, dtype=float)
+
+
+class RiskReserve:
+    """The risk reserve of a flight (``planner.reserve: risk``): the fault model and its risk
+    tables (built once per exposure bucket and kept), from which each step's
+    :class:`RiskMargin` is computed.
+
+    Args:
+        planner: the planner parameters (``fault_model``, ``margin_floor``).
+    """
+
+    def __init__(self, planner: PlannerParams):
+        self.fault_model = FaultModelFromParams(planner.fault_model)
+        self.floor = float(planner.margin_floor)
+        self._tables: dict = {}
+
+    def Table(self, exposure: float):
+        """The :class:`~eaplan_drake.planning.risk_margin.ExcessRiskTable` for exposures up to
+        ``exposure`` [s] (kept per bucket)."""
+        bucket = ExposureBucket(float(exposure))
+        table = self._tables.get(bucket)
+        if table is None:
+            table = self._tables[bucket] = RiskTable(self.fault_model, bucket)
+        return table
+
+    def Margin(self, rate, times, lowest_time, lowest_margin, budget, anchor=None) -> RiskMargin:
+        """The step's :class:`RiskMargin`.
+
+        Args:
+            rate: z s_b σ_α0 [1/s].
+            times: the grid's remaining times [s] (capped at the prediction's length; any order).
+            lowest_time: τ_0 = t_rem(c̲1) [s].
+            lowest_margin: m_0 [-], the lowest plan's fault-free margin above b_res + m_floor +
+                rate · τ_0.
+            budget: ε_k [-].
+            anchor: (τ_a [s] still to fly, m_a [-]), the lowest plan where the budget opened: the
+                excess is measured from min(P(F_0), P(S(τ_a) > m_a)); None: from P(F_0).
+        """
+        times = np.asarray(times, dtype=float)
+        if np.all(times[1:] >= times[:-1]):  # the staircase ascends: np.unique without its sort
+            times = times[np.concatenate(([True], times[1:] != times[:-1]))]
+        else:
+            times = np.unique(times)
+        table = self.Table(float(times[-1]))
+        m_0 = float(lowest_margin)
+        baseline = None
+        if anchor is not None:
+            tau_a, m_a = anchor
+            baseline = float(table.LowestFailure(max(tau_a, 0.0), m_a))
+        margins = table.RequiredMargin(times, float(lowest_time), m_0, float(budget), baseline)
+        # a plan no margin keeps within ε needs more than the lowest plan has: just above m_0
+        # (not +inf), which excludes it as surely and keeps the NLP's constraint gentle
+        margins = np.minimum(margins, max(m_0, 0.0) + UNREACHABLE_MARGIN)
+        return RiskMargin(self.floor, rate, times, margins, (lowest_time, m_0), budget)
+
+
+def StepMargin(planner: PlannerParams, rate: float) -> Margin:
+    """The fixed-reserve margin of ``planner`` for a step whose uncertainty rate is ``rate``
+    [1/s]: :class:`FixedReserveMargin` when ``fault_reserve_time`` is 0, else
+    :class:`TimedReserveMargin`."""
+    floor, reserve = float(planner.margin_floor), float(planner.fault_reserve)
+    reserve_time = float(planner.fault_reserve_time)
+    if reserve_time <= 0.0:
+        return FixedReserveMargin(floor, rate, reserve)
+    return TimedReserveMargin(floor, rate, reserve, reserve_time)
