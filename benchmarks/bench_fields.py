@@ -26,12 +26,12 @@ from eaplan_drake.field.readers import FieldGeoJsonText  # noqa: E402
 from eaplan_drake.field.source import FieldCoverage  # noqa: E402
 from eaplan_drake.files import AtomicWrite, StrictJson  # noqa: E402
 from eaplan_drake.flight.stages import APPROACH  # noqa: E402
-from eaplan_drake.flight.tracking import FlyTracking  # noqa: E402
 from eaplan_drake.loading import LoadNamedScenario  # noqa: E402
 from eaplan_drake.params import Scenario  # noqa: E402
 from eaplan_drake.rates import WithRates  # noqa: E402
 from eaplan_drake.resolve import ResolveScenario  # noqa: E402
 from eaplan_drake.simulation import Simulate  # noqa: E402
+from eaplan_drake.studies.tracking import FlyTracking  # noqa: E402
 from eaplan_drake.studies.worlds import LowestPlan  # noqa: E402
 
 LO, HI = -1000.0, 0.0

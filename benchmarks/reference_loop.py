@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from eaplan_drake.energy.fourier import DiscreteEnergyMatrices, OutputMatrix
+from eaplan_drake.energy.fourier import DiscreteEnergyMatrices, ModelOrder, OutputMatrix
 from eaplan_drake.energy.sensor import BLOCK_SIZE, NoiseSamples
 from eaplan_drake.flight.plant import MaxHeadingRate
 from eaplan_drake.resolve import ResolveScenario, StartParameters
@@ -109,7 +109,7 @@ def FlyReferenceLoop(scenario, log_period: float = 0.1) -> dict:
     sensor = s.sensor
     sensor_params = type(sensor)(**{**sensor.__dict__, "seed": s.SensorSeed()})
     # estimator
-    order = s.estimator.ModelOrder(s.energy_model.order)
+    order = ModelOrder(s.energy_model.order, s.estimator.aperiodic_time_constant)
     cvec = OutputMatrix(order)[0]
     m = cvec.size
     q = np.zeros(m)

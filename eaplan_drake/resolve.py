@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.energy.computation import ComputationTable, LoadComputationTable
+from eaplan_drake.energy.fourier import ModelOrder
 from eaplan_drake.errors import MissingExtraError, ScenarioError
 from eaplan_drake.flight.coverage import CheckCoverageGeometry, PlanSource
 from eaplan_drake.flight.paths import PathFunction
@@ -142,7 +143,9 @@ def Derive(scenario: Scenario, table: ComputationTable, plan: PlanSource) -> Res
         table=table,
         plan=plan,
         start=StartParameters(scenario, table),
-        model_order=scenario.estimator.ModelOrder(scenario.energy_model.order),
+        model_order=ModelOrder(
+            scenario.energy_model.order, scenario.estimator.aperiodic_time_constant
+        ),
         path_parameter_grid=planner.PathParameterGrid(),
         wind=wind,
         coverage_time_bounds=tuple(

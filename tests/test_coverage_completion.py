@@ -27,10 +27,10 @@ from eaplan_drake.flight.coverage import ZamboniCoverage
 from eaplan_drake.flight.polygon import CoveragePolygon
 from eaplan_drake.flight.sequencer import StageSequencer
 from eaplan_drake.flight.stages import APPROACH, PathLeft, TurningRadius2
-from eaplan_drake.flight.tracking import FlyTracking
 from eaplan_drake.output.plot_math import UncoveredArea
 from eaplan_drake.params import CoverageParams, GuidanceParams
 from eaplan_drake.resolve import ResolveScenario
+from eaplan_drake.studies.tracking import FlyTracking
 
 SHIPPED = ["plan_I", "plan_II", "plan_i", "plan_ii", "survey"]
 STEP = 2.0

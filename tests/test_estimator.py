@@ -13,6 +13,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
 
 from eaplan_drake.energy.estimator import EnergyEstimator, KalmanPredict, KalmanStep, KalmanUpdate
+from eaplan_drake.energy.fourier import ModelOrder
 from eaplan_drake.params import EstimatorParams
 
 H = 0.01  # 100 Hz
@@ -453,8 +454,8 @@ def test_estimator_aperiodic_params_validated():
         EstimatorParams(aperiodic_noise=-1.0).Validate()
     with pytest.raises(ScenarioError, match="estimator.mean_process_noise"):
         EstimatorParams(mean_process_noise=math.nan).Validate()
-    assert EstimatorParams().ModelOrder(3) == 3
-    assert EstimatorParams(aperiodic_time_constant=math.inf).ModelOrder(2).order == 2
+    assert ModelOrder(3, EstimatorParams().aperiodic_time_constant) == 3
+    assert ModelOrder(2, math.inf).order == 2
 
 
 def test_closed_loop_carries_the_aperiodic_state_to_the_planner():

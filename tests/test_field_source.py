@@ -201,8 +201,8 @@ def test_the_pre_flight_plan_predicts_the_flown_lowest_plan(tmp_path, which, ran
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 4, 8])
 def test_a_random_field_is_flown_to_the_end_at_c1_0_in_still_air(randoms, seed):
-    from eaplan_drake.flight.tracking import FlyTracking
     from eaplan_drake.rates import WithRates
+    from eaplan_drake.studies.tracking import FlyTracking
 
     s = WithRates(Scenario(), "fast")
     s.wind.speed = 0.0

@@ -196,12 +196,13 @@ def test_mpc_decision_predicts_its_end_soc_and_the_port_shows_it(table):
     diagram, _ = _Diagram(system)
     dcontext = diagram.CreateDefaultContext()
     sc = system.GetMyContextFromRoot(dcontext)
-    decision = policy.Plan(system.Observe(sc), policy.InitialMemory())
-    pb = policy.problem
+    observation = system.Observe(sc)
+    decision = policy.Plan(observation, policy.InitialMemory())
+    step = policy.Step(observation, policy.InitialMemory())
     assert math.isfinite(decision.predicted_end_soc) and math.isfinite(decision.required_end_soc)
-    j = int(np.argmin(np.abs(pb.grid - decision.path_parameter)))
+    j = int(np.argmin(np.abs(policy.problem.grid - decision.path_parameter)))
     assert decision.required_end_soc == pytest.approx(
-        BatteryParams().reserve_soc + float(pb.Margin(pb.t_rem[j]))
+        BatteryParams().reserve_soc + float(step.margin.At(step.t_rem[j]))
     )
     if decision.feasible:
         assert decision.predicted_end_soc >= decision.required_end_soc - 1e-9

@@ -5,12 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.output.plot_math import (
     ParameterSteps,
     RobustRange,
     Runs,
-    StagePoints,
     TimeMarkStep,
     UncoveredArea,
     UncoveredRadius,
@@ -42,20 +40,6 @@ def test_robust_range_ignores_a_start_up_spike():
     assert RobustRange([np.nan, np.inf]) == (0.0, 1.0)
     lo, hi = RobustRange([5.0, 5.0], pad=0.1)
     assert lo < 5.0 < hi
-
-
-def test_stage_points_follow_the_circle_from_entry_to_trigger():
-    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0, k_e=0.05)
-    stage = next(s for s in plan.Stages(0.0) if s.is_circle and s.primitive >= 0)
-    pts = StagePoints(stage, step=1.0)
-    r = np.linalg.norm(pts - np.asarray(stage.path.center), axis=1)
-    np.testing.assert_allclose(r, stage.path.radius, atol=1e-9)
-    np.testing.assert_allclose(pts[0], stage.entry, atol=1e-9)
-    np.testing.assert_allclose(pts[-1], stage.trigger, atol=1e-6)
-    length = np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))
-    assert length == pytest.approx(stage.length, rel=1e-3)
-    line = next(s for s in plan.Stages(0.0) if not s.is_circle)
-    np.testing.assert_allclose(StagePoints(line), [line.entry, line.trigger])
 
 
 def test_time_mark_step_runs_and_parameter_steps():

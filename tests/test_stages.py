@@ -4,16 +4,19 @@ of a stage."""
 import dataclasses as dc
 import math
 
+import numpy as np
 import pytest
 
+from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.flight.paths import Circle
 from eaplan_drake.flight.stages import (
     GroundSpeed,
     PathLength,
     Stage,
+    StagePoints,
     StageTime,
 )
-from eaplan_drake.params import GuidanceParams
+from eaplan_drake.params import GuidanceParams, Scenario
 
 V_A = 15.0  # the reference airspeed [m/s]
 K_E = GuidanceParams().k_e
@@ -46,3 +49,17 @@ def test_path_length_helper():
     assert PathLength(c, (0.0, 10.0), (10.0, 0.0)) == pytest.approx(math.pi * 15.0)
     cw = dc.replace(c, s=1.0)
     assert PathLength(cw, (10.0, 0.0), (0.0, 10.0)) == pytest.approx(math.pi * 15.0)
+
+
+def test_stage_points_follow_the_circle_from_entry_to_trigger():
+    plan = MakeCoveragePlan(Scenario().coverage, Scenario().vehicle, c1=0.0, k_e=0.05)
+    stage = next(s for s in plan.Stages(0.0) if s.is_circle and s.primitive >= 0)
+    pts = StagePoints(stage, step=1.0)
+    r = np.linalg.norm(pts - np.asarray(stage.path.center), axis=1)
+    np.testing.assert_allclose(r, stage.path.radius, atol=1e-9)
+    np.testing.assert_allclose(pts[0], stage.entry, atol=1e-9)
+    np.testing.assert_allclose(pts[-1], stage.trigger, atol=1e-6)
+    length = np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))
+    assert length == pytest.approx(stage.length, rel=1e-3)
+    line = next(s for s in plan.Stages(0.0) if not s.is_circle)
+    np.testing.assert_allclose(StagePoints(line), [line.entry, line.trigger])

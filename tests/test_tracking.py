@@ -5,8 +5,8 @@ import pytest
 
 from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.flight.paths import Circle, Line
-from eaplan_drake.flight.tracking import FlyTracking, MakeTrackingDiagram, PathError
 from eaplan_drake.params import Scenario
+from eaplan_drake.studies.tracking import FlyTracking, MakeTrackingDiagram, PathError
 
 
 def test_path_error_is_the_normalised_path_function():

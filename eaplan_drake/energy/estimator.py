@@ -41,6 +41,7 @@ from pydrake.systems.framework import BasicVector, Context, DiscreteValues, Leaf
 from eaplan_drake.energy.fourier import (
     InputMemory,
     KnownInputStep,
+    ModelOrder,
     OutputMatrix,
     ProcessNoiseMatrix,
     StateSize,
@@ -189,7 +190,7 @@ class EnergyEstimator(LeafSystem):
         estimator.Validate("estimator")
         estimator = copy.deepcopy(estimator)
         StateSize(order)  # checks the Fourier order r
-        model = estimator.ModelOrder(order)
+        model = ModelOrder(order, estimator.aperiodic_time_constant)
         m = StateSize(model)
         T0 = float(initial_period)
         if not (math.isfinite(T0) and T0 > 0.0):

@@ -46,6 +46,7 @@ from pydrake.systems.framework import BasicVector, Context, DiscreteValues, Leaf
 __all__ = [
     "AperiodicDecay",
     "AugmentedOrder",
+    "ModelOrder",
     "DiscreteEnergyMatrices",
     "DiscreteFourierMatrices",
     "EstimatePeriod",
@@ -102,6 +103,15 @@ class AugmentedOrder:
 
     def __int__(self) -> int:
         return int(self.order)
+
+
+def ModelOrder(order: int, aperiodic_time_constant: float):
+    """The ``order`` argument of this module for Fourier order r and the estimator's aperiodic
+    time constant τ [s] (``estimator.aperiodic_time_constant``): r itself (paper model, τ = 0) or
+    ``AugmentedOrder(r, τ)`` when the aperiodic state is on."""
+    if aperiodic_time_constant > 0.0:
+        return AugmentedOrder(int(order), float(aperiodic_time_constant))
+    return int(order)
 
 
 def _Structure(order) -> tuple[int, float | None]:

@@ -175,9 +175,9 @@ class FieldCoverage(PlanSource):
 
     def DistanceOutside(self, stage, step: float = 5.0) -> float:
         """How far [m] the path of ``stage`` gets from the field (0 where it stays inside), its
-        points sampled every ≈ ``step`` [m] (:func:`~eaplan_drake.output.plot_math.StagePoints`,
+        points sampled every ≈ ``step`` [m] (:func:`~eaplan_drake.flight.stages.StagePoints`,
         lines cut into pieces of at most ``step``)."""
-        from eaplan_drake.output.plot_math import StagePoints
+        from eaplan_drake.flight.stages import StagePoints
 
         shapely = Require("shapely")
         path = shapely.LineString(StagePoints(stage, step)).segmentize(step)

@@ -13,7 +13,7 @@ from matplotlib.markers import MarkerStyle
 from matplotlib.patches import Patch
 from matplotlib.transforms import Affine2D, ScaledTranslation
 
-from eaplan_drake.flight.stages import APPROACH
+from eaplan_drake.flight.stages import APPROACH, StagePoints
 from eaplan_drake.flightlog import (
     FlightLog,
     NormaliseParameters,
@@ -21,7 +21,6 @@ from eaplan_drake.flightlog import (
 )
 from eaplan_drake.output.plot_math import (
     ParameterSteps,
-    StagePoints,
     TimeMarkStep,
     UncoveredArea,
     UncoveredRadius,

@@ -14,25 +14,10 @@ __all__ = [
     "ParameterSteps",
     "RobustRange",
     "Runs",
-    "StagePoints",
     "TimeMarkStep",
     "UncoveredArea",
     "UncoveredRadius",
 ]
-
-
-def StagePoints(stage, step: float = 2.0) -> np.ndarray:
-    """Points [m] (k × 2) of a plan stage from its entry to its trigger: the segment of a line,
-    or the arc of a circle in the direction of travel, sampled every ≈ ``step`` metres."""
-    entry = np.asarray(stage.entry, dtype=float)
-    if not stage.is_circle:
-        return np.array([entry, np.asarray(stage.trigger, dtype=float)])
-    o, r = np.asarray(stage.path.center, dtype=float), float(stage.path.radius)
-    v, t = entry - o, stage.path.tangent(entry)
-    sign = 1.0 if v[0] * t[1] - v[1] * t[0] > 0 else -1.0  # counter-clockwise: +1
-    n = 2 + int(stage.length / step)
-    a = math.atan2(v[1], v[0]) + sign * np.linspace(0.0, stage.length / r, n)
-    return o + r * np.column_stack([np.cos(a), np.sin(a)])
 
 
 def UncoveredArea(

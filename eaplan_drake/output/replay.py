@@ -147,7 +147,7 @@ def _Flat(meshcat, path, outline_xy, z, rgba):
 
 
 def _Planned(scenario: Scenario):
-    from eaplan_drake.output.plot_math import StagePoints
+    from eaplan_drake.flight.stages import StagePoints
     from eaplan_drake.resolve import MakePlanSource
 
     c1 = scenario.planner.initial_path_parameters[0]

@@ -205,12 +205,3 @@ class EstimatorParams(_Params):
         _at_most(
             self.mean_process_noise, f"{key}.mean_process_noise", MAX_VARIANCE, "W²/s", "numerics"
         )
-
-    def ModelOrder(self, order: int):
-        """The ``order`` argument of :mod:`eaplan_drake.energy.fourier` for Fourier order r: r
-        itself (paper model) or ``AugmentedOrder(r, τ)`` when the aperiodic state is on."""
-        if self.aperiodic_time_constant > 0.0:
-            from eaplan_drake.energy.fourier import AugmentedOrder
-
-            return AugmentedOrder(int(order), float(self.aperiodic_time_constant))
-        return int(order)
