@@ -58,7 +58,8 @@ def _FormatSummary(summary: dict) -> str:
     infeasible_at = summary.get("first_infeasible_time")
     steps, infeasible = planner.get("solves", 0), planner.get("infeasible", 0)
     indent = " " * 16
-    if policy in ("static", "hindsight") and not steps:
+    info = POLICIES.Info(policy)
+    if info.holds_parameters and not steps:
         planning = [f"planner         none: the {policy} policy holds the initial parameters"]
     else:
         planning = [
@@ -84,18 +85,7 @@ def _FormatSummary(summary: dict) -> str:
         elif "solve_times" not in planner and planner.get("median_solve_time"):
             planning.append(f"{indent}median solve {1e3 * planner['median_solve_time']:.1f} ms")
         else:  # a policy that solves no NLP: say so, not "median solve 0.0 ms"
-            planning.append(
-                indent
-                + {
-                    "paper": "no NLP solved: with integer parameters the paper's planner "
-                    "searches the table's c2 grid exactly",
-                    "greedy_authors": "no NLP solved: the authors' rule tries every c2 of the "
-                    "table",
-                    "greedy": "no NLP solved: a one-step rule over the table's c2",
-                    "mpc": "no NLP solved: at every step the table's grid decided the plan "
-                    "without it, or the lowest plan was flown",
-                }.get(policy, "no NLP solved")
-            )
+            planning.append(indent + info.without_solve)
         if infeasible:
             why, what = InfeasibleCause(policy)
             planning.append(f"{indent}{infeasible} steps where {why}; {what}")

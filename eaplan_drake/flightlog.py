@@ -27,6 +27,7 @@ __all__ = [
     "NormaliseParameters",
     "NormalisedParameters",
     "NormalisedSamples",
+    "Quality",
     "QualityMetric",
     "SampleQuality",
 ]
@@ -73,6 +74,12 @@ def LoadFlightLog(directory: str | Path) -> FlightLog:
     return FlightLog(times=times, signals=arrays, summary=summary)
 
 
+def Quality(c1n, c2n):
+    """The quality ½ c̃1 + ½ c̃2 [-] of normalised parameters (floats or arrays): the integrand of
+    the summary's quality and of the paper's metric P."""
+    return 0.5 * c1n + 0.5 * c2n
+
+
 def QualityMetric(
     times: np.ndarray,
     path_parameters: np.ndarray,
@@ -96,7 +103,7 @@ def QualityMetric(
     margin = final_soc - reserve_soc
     if not completed or margin <= 0.0:
         return None, mean_c1, mean_c2
-    return (0.5 * mean_c1 + 0.5 * mean_c2) / margin, mean_c1, mean_c2
+    return Quality(mean_c1, mean_c2) / margin, mean_c1, mean_c2
 
 
 def NormalisedSamples(
@@ -138,8 +145,7 @@ def NormalisedParameters(log: FlightLog) -> tuple[np.ndarray, np.ndarray]:
 def SampleQuality(log: FlightLog) -> np.ndarray:
     """½ c̃1 + ½ c̃2 at each sample of ``log`` (:func:`NormalisedParameters`), the integrand of the
     quality in the summary."""
-    c1n, c2n = NormalisedParameters(log)
-    return 0.5 * c1n + 0.5 * c2n
+    return Quality(*NormalisedParameters(log))
 
 
 def NormaliseParameters(c, lo, hi):

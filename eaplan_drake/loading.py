@@ -29,6 +29,7 @@ import yaml
 
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import ReadTextFile
+from eaplan_drake.packaged import PACKAGED_FIELDS, PACKAGED_PLANS, PACKAGED_TABLES
 from eaplan_drake.params import Scenario
 from eaplan_drake.params.walk import _Dataclasses, _Hints, _UnknownKeyMessage, _Walk
 
@@ -80,20 +81,17 @@ def ResolveFilePaths(scenario: Scenario, base_dir: str | Path) -> Scenario:
     ``coverage.field`` path made
     relative to ``base_dir`` (the scenario file's folder) instead of the current directory;
     packaged names (``pednet_jetson_nano``, ``reference``, …) stay. Modifies and returns it."""
-    from eaplan_drake.energy.computation import PACKAGED_TABLES
-
     base = Path(base_dir)
     table = scenario.computation.table
     if isinstance(table, str) and table and table not in PACKAGED_TABLES:
         if not Path(table).is_absolute():
             scenario.computation.table = str(base / table)
     plan = scenario.coverage.plan_file
-    if isinstance(plan, str) and plan and plan not in ("reference", "reference_plan"):
+    if isinstance(plan, str) and plan and plan not in PACKAGED_PLANS:
         if not Path(plan).is_absolute():
             scenario.coverage.plan_file = str(base / plan)
     field = scenario.coverage.field
-    packaged_fields = ("funen_field",)  # eaplan_drake.field.source.PACKAGED_FIELDS
-    if isinstance(field, str) and field and field not in packaged_fields:
+    if isinstance(field, str) and field and field not in PACKAGED_FIELDS:
         if not Path(field).is_absolute():
             scenario.coverage.field = str(base / field)
     return scenario

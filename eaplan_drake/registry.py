@@ -22,6 +22,7 @@ The tables:
 A new choice is its module plus one line here (or, from Python, :meth:`Registry.Register`).
 """
 
+import dataclasses as dc
 import importlib
 from collections.abc import Callable
 
@@ -33,6 +34,7 @@ __all__ = [
     "PLAN_SOURCES",
     "POLICIES",
     "POWER_LOG_READERS",
+    "PolicyInfo",
     "Registry",
 ]
 
@@ -41,9 +43,17 @@ class Registry:
     """Names → factories for the scenario key ``key``; ``entries`` maps each name to a factory or
     to its ``"module:attribute"`` path. Iterating yields the names in registration order."""
 
-    def __init__(self, key: str, entries: dict[str, str | Callable]):
+    def __init__(self, key: str, entries: dict[str, str | Callable], info=None, default_info=None):
         self.key = key
         self._entries = dict(entries)
+        self._info = dict(info or {})
+        self._default_info = default_info
+
+    def Info(self, name: str):
+        """What the tables say of the choice ``name`` beside its factory (e.g. a policy's
+        :class:`PolicyInfo`); the registry's default for a name without any (None if it has
+        none)."""
+        return self._info.get(name, self._default_info)
 
     def Names(self) -> tuple[str, ...]:
         """The registered names, in registration order."""
@@ -77,18 +87,53 @@ class Registry:
         """``Factory(name)(*args, **kwargs)``."""
         return self.Factory(name)(*args, **kwargs)
 
-    def Register(self, name: str, factory: str | Callable) -> None:
-        """Adds (or replaces) the choice ``name``; a scenario may name it from then on."""
+    def Register(self, name: str, factory: str | Callable, info=None) -> None:
+        """Adds (or replaces) the choice ``name`` (with its ``info``, e.g. a
+        :class:`PolicyInfo`); a scenario may name it from then on."""
         if not isinstance(name, str) or not name.isidentifier():
             raise ValueError(f"{self.key}: a choice's name must be an identifier, got {name!r}")
         if not (callable(factory) or (isinstance(factory, str) and ":" in factory)):
             raise ValueError(f"{self.key}: {name}: expected a callable or 'module:attribute'")
         self._entries[name] = factory
+        self._info.pop(name, None)
+        if info is not None:
+            self._info[name] = info
 
     def Unregister(self, name: str) -> None:
         """Removes the choice ``name`` (a scenario naming it is then refused)."""
         self.Check(name)
         del self._entries[name]
+        self._info.pop(name, None)
+
+
+@dc.dataclass(frozen=True)
+class PolicyInfo:
+    """What the summary and the figures say of a policy (:data:`POLICIES`' entry beside its
+    factory)."""
+
+    infeasible_why: str = "the policy's constraint cannot be met"
+    """Why a step has ``mission_feasible`` = 0."""
+    infeasible_flown: str = "flew the policy's fallback there"
+    """What the policy flew at such a step."""
+    feasible_means: str = "the policy's constraint can be met"
+    """What ``mission_feasible`` = 1 says."""
+    without_solve: str = "no NLP solved"
+    """The summary's line for a flight in which the policy solved no NLP."""
+    holds_parameters: bool = False
+    """It holds the initial parameters and never re-plans (no warm-up, no planner steps)."""
+    power_budget: bool = False
+    """It plans with the paper's output bound y ≤ b·Q_c·V (the figures draw the bound)."""
+
+
+_PAPER_BOUND = PolicyInfo(
+    "the paper's output constraint y ≤ b·Q_c·V cannot hold",
+    "flew the lowest c2 there",
+    "y ≤ b·Q_c·V holds at some c2",
+    power_budget=True,
+)
+_HOLDS = PolicyInfo(
+    "never: the static policy does not plan", "", "always, never re-planned", holds_parameters=True
+)
 
 
 POLICIES = Registry(
@@ -101,9 +146,37 @@ POLICIES = Registry(
         "static": "eaplan_drake.planning.policies:MakeStaticPolicy",
         "hindsight": "eaplan_drake.planning.policies:MakeStaticPolicy",
     },
+    info={
+        "mpc": PolicyInfo(
+            "even the lowest plan ends below reserve + margin",
+            "flew the lowest plan there",
+            "the lowest plan ends at or above reserve + margin",
+            "no NLP solved: at every step the table's grid decided the plan without it, or the "
+            "lowest plan was flown",
+        ),
+        "paper": dc.replace(
+            _PAPER_BOUND,
+            without_solve="no NLP solved: with integer parameters the paper's planner searches "
+            "the table's c2 grid exactly",
+        ),
+        "greedy": PolicyInfo(
+            "no c1 of the grid ends at or above the reserve",
+            "moved c1 towards the lowest there",
+            "some c1 of the grid ends at or above the reserve",
+            "no NLP solved: a one-step rule over the table's c2",
+        ),
+        "greedy_authors": dc.replace(
+            _PAPER_BOUND,
+            without_solve="no NLP solved: the authors' rule tries every c2 of the table",
+        ),
+        "static": _HOLDS,
+        "hindsight": _HOLDS,
+    },
+    default_info=PolicyInfo(),
 )
-"""``planner.policy``: the planner policies (:mod:`eaplan_drake.planning.policies`);
-``hindsight`` flights are static (:func:`~eaplan_drake.simulation.FlyHindsight` flies several)."""
+"""``planner.policy``: the planner policies (:mod:`eaplan_drake.planning.policies`), each with its
+:class:`PolicyInfo`; ``hindsight`` flights are static (:func:`~eaplan_drake.simulation.FlyHindsight`
+flies several)."""
 
 AIRCRAFT_MODELS = Registry(
     "simulation.plant",

@@ -23,7 +23,7 @@ from eaplan_drake.energy.battery import STATUS_BROWNOUT, STATUS_RESERVE
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import JsonSafe
 from eaplan_drake.flight.plant import NonFiniteCommandError
-from eaplan_drake.flightlog import FlightLog, NormaliseParameters, QualityMetric
+from eaplan_drake.flightlog import FlightLog, NormaliseParameters, Quality, QualityMetric
 from eaplan_drake.params import CheckType, Scenario
 from eaplan_drake.planning.planner import PlannerPolicy
 from eaplan_drake.resolve import ResolveScenario
@@ -137,7 +137,7 @@ def _Summary(log: FlightLog, diagram, context, scenario: Scenario, status: str) 
         "path_parameter_bounds": [float(v) for v in scenario.planner.path_parameter_bounds],
         "computation_parameter_bounds": [table_lo.tolist(), table_hi.tolist()],
         "final_margin": final_soc - reserve,
-        "quality": 0.5 * mean_c1 + 0.5 * mean_c2,
+        "quality": Quality(mean_c1, mean_c2),
         "mean_path_parameter_normalised": mean_c1,
         "mean_computation_parameter_normalised": mean_c2,
         "metric": metric,
@@ -293,7 +293,7 @@ def HindsightGrid(scenario: Scenario) -> list[tuple[float, np.ndarray]]:
             c2 = np.array(c2, dtype=float)
             q1 = float(NormaliseParameters(c1, lo, hi))
             q2 = float(np.mean((c2 - table.lower) / span))
-            pairs.append((-(0.5 * q1 + 0.5 * q2), table.power(c2), float(c1), c2))
+            pairs.append((-Quality(q1, q2), table.power(c2), float(c1), c2))
     pairs.sort(key=lambda p: (p[0], p[1], -p[2]))
     return [(c1, c2) for _, _, c1, c2 in pairs]
 

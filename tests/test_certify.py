@@ -10,8 +10,8 @@ import pytest
 
 from eaplan_drake.cli import main as cli_main
 from eaplan_drake.params import FaultModelParams
-from eaplan_drake.planning.risk import ClopperPearsonUpper
 from eaplan_drake.studies.certify import CERTIFY_RANGES, Certify, CertifyReport, CertifyStudy
+from eaplan_drake.studies.statistics import ClopperPearsonUpper
 from eaplan_drake.studies.sweep import DrawFaults, StudyFlights
 
 

@@ -17,13 +17,13 @@ from pydrake.systems.primitives import (
 )
 
 from eaplan_drake.energy.computation import (
-    PACKAGED_TABLES,
     ComputationLoad,
     ComputationTable,
     ComputationTableError,
     LoadComputationTable,
     ParseComputationTable,
 )
+from eaplan_drake.packaged import PACKAGED_TABLES
 
 
 def _rows(name):

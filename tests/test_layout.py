@@ -81,11 +81,11 @@ def test_the_package_has_no_import_cycle():
 
 
 LAYERS = [
-    {"errors", "files", "registry"},
+    {"errors", "files", "registry", "packaged"},
     {"params", "ticks", "rates", "flightlog"},
     {"energy"},
-    {"loading"},
     {"flight"},
+    {"loading"},
     {"planning"},
     {"field"},
     {"resolve"},

@@ -18,6 +18,7 @@ from eaplan_drake.registry import (
     PLAN_SOURCES,
     POLICIES,
     POWER_LOG_READERS,
+    PolicyInfo,
     Registry,
 )
 from eaplan_drake.simulation import Simulate
@@ -92,6 +93,12 @@ def test_the_shipped_tables_name_every_choice():
     for registry in (POLICIES, AIRCRAFT_MODELS, PLAN_SOURCES, BATTERY_MODELS, POWER_LOG_READERS):
         for name in registry:
             assert callable(registry.Factory(name)), (registry.key, name)
+    # every shipped policy says what its infeasible steps mean and how it plans
+    for name in POLICIES:
+        info = POLICIES.Info(name)
+        assert isinstance(info, PolicyInfo) and info.infeasible_why and info.feasible_means
+    assert [n for n in POLICIES if POLICIES.Info(n).holds_parameters] == ["static", "hindsight"]
+    assert [n for n in POLICIES if POLICIES.Info(n).power_budget] == ["paper", "greedy_authors"]
     with pytest.raises(ScenarioError, match=r"^battery\.model: must be one of rint, got 'lipo'"):
         BatteryParams(model="lipo").Validate()
     with pytest.raises(ScenarioError, match=r"^planner\.policy: must be one of mpc, paper"):
@@ -125,8 +132,12 @@ def ideal_battery():
 @pytest.fixture
 def hold_lowest():
     POLICIES.Register("hold_lowest", MakeHoldLowestPolicy)
+    assert POLICIES.Info("hold_lowest") == PolicyInfo()  # the default texts
+    POLICIES.Register("hold_lowest", MakeHoldLowestPolicy, PolicyInfo(infeasible_why="never"))
+    assert POLICIES.Info("hold_lowest").infeasible_why == "never"
     yield
     POLICIES.Unregister("hold_lowest")
+    assert POLICIES.Info("hold_lowest") == PolicyInfo()
 
 
 def test_a_new_battery_model_is_one_registry_line_and_flies(ideal_battery):

@@ -28,22 +28,15 @@ from pathlib import Path
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
+from eaplan_drake.packaged import PACKAGED_TABLES
+
 __all__ = [
-    "PACKAGED_TABLES",
     "ComputationLoad",
     "ComputationTable",
     "ComputationTableError",
     "LoadComputationTable",
     "ParseComputationTable",
 ]
-
-_DATA = Path(__file__).resolve().parents[1] / "data"
-
-PACKAGED_TABLES = {
-    "pednet_jetson_nano": _DATA / "powprofiler_pednet_jetson_nano.csv",
-    "two_parameters": _DATA / "powprofiler_two_parameters.csv",
-}
-"""Names accepted by :func:`LoadComputationTable` → packaged CSV files."""
 
 
 MAX_TABLE_ROWS = 10_000
@@ -323,7 +316,8 @@ def _is_header_field(field: str) -> bool:
 
 
 def LoadComputationTable(name_or_path: str | Path) -> ComputationTable:
-    """Loads a powprofiler table: a packaged name (see :data:`PACKAGED_TABLES`) or a CSV path."""
+    """Loads a powprofiler table: a packaged name
+    (:data:`~eaplan_drake.packaged.PACKAGED_TABLES`) or a CSV path."""
     key = str(name_or_path)
     path = PACKAGED_TABLES.get(key, Path(key))
     if not path.is_file():

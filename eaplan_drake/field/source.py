@@ -59,11 +59,9 @@ from eaplan_drake.field.route import (
 from eaplan_drake.flight.coverage import PlanSource
 from eaplan_drake.flight.paths import Circle, Line
 from eaplan_drake.flight.stages import APPROACH, NUM_PRIMITIVES, MakeStage, Stage
+from eaplan_drake.packaged import PACKAGED_FIELDS, PackagedPath
 
-__all__ = ["CONTINUED", "PACKAGED_FIELDS", "FieldCoverage", "FieldPath", "MakeFieldPlanSource"]
-
-PACKAGED_FIELDS = {"funen_field": "funen_field.geojson"}
-"""Fields shipped in ``eaplan_drake/data`` that ``coverage.field`` may name instead of a path."""
+__all__ = ["CONTINUED", "FieldCoverage", "FieldPath", "MakeFieldPlanSource"]
 
 CONTINUED = NUM_PRIMITIVES
 """Primitive of a stage that continues a turn (an Ω turn's later arcs, a split arc's second
@@ -71,12 +69,9 @@ half): part of the survey, outside the sequencer's primitives 0–3 that measure
 
 
 def FieldPath(name_or_path: str) -> str:
-    """The file of ``coverage.field``: a packaged field's (:data:`PACKAGED_FIELDS`) or the path."""
-    if name_or_path in PACKAGED_FIELDS:
-        from importlib import resources
-
-        return str(resources.files("eaplan_drake") / "data" / PACKAGED_FIELDS[name_or_path])
-    return name_or_path
+    """The file of ``coverage.field``: a packaged field's
+    (:data:`~eaplan_drake.packaged.PACKAGED_FIELDS`) or the path."""
+    return PackagedPath(PACKAGED_FIELDS, name_or_path)
 
 
 def _Left(d) -> np.ndarray:

@@ -48,6 +48,7 @@ from eaplan_drake.flight.stages import (
     PathLength,
     Stage,
 )
+from eaplan_drake.packaged import PACKAGED_PLANS, PackagedPath
 
 __all__ = [
     "PlanFileError",
@@ -62,7 +63,7 @@ __all__ = [
     "REFERENCE_PLAN",
 ]
 
-REFERENCE_PLAN = str(Path(__file__).resolve().parents[1] / "data" / "reference_plan.pln")
+REFERENCE_PLAN = str(PACKAGED_PLANS["reference"])
 """The authors' static reference plan (``plan_specification.pln``), packaged."""
 
 
@@ -644,7 +645,7 @@ def LoadPlanFile(
     plan, anything else a path. Start position and airspeed from ``vehicle``
     (:class:`~eaplan_drake.params.VehicleParams`), initial ``c1`` [m²], ``k_e`` [1/m] and
     ``c1_bounds`` [m²]; other keywords go to :class:`PlanFile`."""
-    path = REFERENCE_PLAN if name_or_path in ("reference", "reference_plan") else name_or_path
+    path = PackagedPath(PACKAGED_PLANS, name_or_path)
     return ReadPlanFile(
         path,
         k_e=k_e,

@@ -2,12 +2,14 @@
 :mod:`~eaplan_drake.output.path_plot`) and of the Meshcat replay
 (:mod:`~eaplan_drake.output.replay`): one colour, one meaning (:data:`COLORS`), the quality's
 colour map (:data:`QUALITY_COLORMAP`), and the texts the figures share (what an infeasible
-planner step means for each policy, the faults, the end of a flight)."""
+planner step means for each policy, read from its :class:`~eaplan_drake.registry.PolicyInfo`; the
+faults; the end of a flight)."""
 
 import numpy as np
 
 from eaplan_drake.flightlog import FlightLog
 from eaplan_drake.params import Scenario
+from eaplan_drake.registry import POLICIES
 
 __all__ = ["COLORS", "InfeasibleCause", "QUALITY_COLORMAP"]
 
@@ -37,31 +39,6 @@ COLORS = {
 
 _QUALITY_LABEL = "quality ½c̃1 + ½c̃2 [-]"
 _C1_NOTE = "c1 = r2² − r² ≤ 0"
-_POWER_BUDGET_POLICIES = ("paper", "greedy_authors")
-_INFEASIBLE_CAUSES = {
-    # policy: (why a step is infeasible, what the policy flew then, what mission_feasible = 1 says)
-    "paper": (
-        "the paper's output constraint y ≤ b·Q_c·V cannot hold",
-        "flew the lowest c2 there",
-        "y ≤ b·Q_c·V holds at some c2",
-    ),
-    "greedy_authors": (
-        "the paper's output constraint y ≤ b·Q_c·V cannot hold",
-        "flew the lowest c2 there",
-        "y ≤ b·Q_c·V holds at some c2",
-    ),
-    "mpc": (
-        "even the lowest plan ends below reserve + margin",
-        "flew the lowest plan there",
-        "the lowest plan ends at or above reserve + margin",
-    ),
-    "greedy": (
-        "no c1 of the grid ends at or above the reserve",
-        "moved c1 towards the lowest there",
-        "some c1 of the grid ends at or above the reserve",
-    ),
-    "static": ("never: the static policy does not plan", "", "always, never re-planned"),
-}
 
 
 def InfeasibleCause(policy: str) -> tuple[str, str]:
@@ -72,14 +49,8 @@ def InfeasibleCause(policy: str) -> tuple[str, str]:
 
 
 def _Cause(policy: str) -> tuple[str, str, str]:
-    return _INFEASIBLE_CAUSES.get(
-        policy,
-        (
-            "the policy's constraint cannot be met",
-            "flew the policy's fallback there",
-            "the policy's constraint can be met",
-        ),
-    )
+    info = POLICIES.Info(policy)
+    return info.infeasible_why, info.infeasible_flown, info.feasible_means
 
 
 def _Faults(scenario: Scenario) -> str:

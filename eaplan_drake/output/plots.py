@@ -43,7 +43,6 @@ from eaplan_drake.output.path_plot import PlotPath
 from eaplan_drake.output.plot_math import RobustRange, Runs
 from eaplan_drake.output.plot_style import (
     _C1_NOTE,
-    _POWER_BUDGET_POLICIES,
     _QUALITY_LABEL,
     COLORS,
     InfeasibleCause,
@@ -53,6 +52,7 @@ from eaplan_drake.output.plot_style import (
     _PathBounds,
 )
 from eaplan_drake.params import Scenario
+from eaplan_drake.registry import POLICIES
 
 __all__ = [
     "MarkEvents",
@@ -73,7 +73,7 @@ def MarkEvents(ax, scenario: Scenario, legend: bool = True) -> list:
     vertical line on a time axis (both below the data of ``ax``); returns legend handles."""
     handles = []
     warmup = float(scenario.planner.warmup)
-    if warmup > 0.0 and scenario.planner.policy not in ("static", "hindsight"):
+    if warmup > 0.0 and not POLICIES.Info(scenario.planner.policy).holds_parameters:
         ax.axvspan(0.0, warmup, color=COLORS["warmup"], zorder=0, lw=0)
         handles.append(Patch(color=COLORS["warmup"], label=f"warm-up ({warmup:g} s)"))
     for fault in scenario.battery.faults:
@@ -297,7 +297,7 @@ def PlotPlanner(ax, log: FlightLog, scenario: Scenario) -> None:
         right = t[b] if b < len(t) else t_end
         ax.axvspan(t[a], right, color=COLORS["infeasible"], alpha=0.35, lw=0, zorder=0.5)
     lines = []
-    if policy in _POWER_BUDGET_POLICIES and "power_budget" in log.signals:
+    if POLICIES.Info(policy).power_budget and "power_budget" in log.signals:
         budget = np.asarray(log["power_budget"], dtype=float)[:, 0]
         estimate = np.asarray(log["estimated_power"], dtype=float)[:, 0]
         (lb,) = ax.plot(
@@ -326,7 +326,7 @@ def PlotPlanner(ax, log: FlightLog, scenario: Scenario) -> None:
         ax.set_yticks([0.0, 1.0])
         ax.set_ylabel("mission_feasible [-]")
         title = f"planner ({policy})"
-        if policy in ("static", "hindsight"):
+        if POLICIES.Info(policy).holds_parameters:
             title = f"planner ({policy}: the initial parameters held, never re-planned)"
     if infeasible:
         steps = log.summary.get("planner", {}).get("infeasible")

@@ -65,8 +65,7 @@ Recursive feasibility: for the lowest plan F_p = F_0, so its excess risk is 0 (r
 and the constraint R(p) <= ε admits it from every state, after every drop. Its own risk P(F_0) is
 the world's, not an excess, and is reported apart. ε bounds one decision given the state (the
 mpc spends one budget per mission, :mod:`eaplan_drake.planning.risk_margin`); the rate over whole
-missions is what Monte Carlo over worlds certifies (:func:`ClopperPearsonUpper`,
-:func:`WorldsNeeded`). In a thin world (m_0 small against the drops) the lowest plan survives by
+missions is what Monte Carlo over worlds certifies (:mod:`eaplan_drake.studies.certify`). In a thin world (m_0 small against the drops) the lowest plan survives by
 little, and a plan that spends more loses those worlds: its excess risk is large.
 """
 
@@ -77,10 +76,10 @@ import threading
 
 import numpy as np
 
+from eaplan_drake.errors import CheckCount, CheckNumber
 from eaplan_drake.params import MAX_EXPECTED_DROPS
 
 __all__ = [
-    "ClopperPearsonUpper",
     "EmpiricalDrops",
     "ExcessRisk",
     "ExcessRiskBounds",
@@ -91,7 +90,6 @@ __all__ = [
     "PoissonPmf",
     "TotalDropTail",
     "UniformDrops",
-    "WorldsNeeded",
 ]
 
 POISSON_TAIL = 1e-12
@@ -101,25 +99,6 @@ MAX_SUPPORT = 200_000
 """Largest number of distinct values of an n-fold sum of :class:`EmpiricalDrops`."""
 
 _GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(8)
-
-
-def _CheckScalar(
-    name: str, value, low: float, high: float, what: str, *, open_low=False, open_high=False
-) -> float:
-    """``value`` as a float in the interval, or a one-line ValueError naming ``name``."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be a number, got {value!r}") from None
-    inside = (x > low if open_low else x >= low) and (x < high if open_high else x <= high)
-    if not (math.isfinite(x) and inside):
-        interval = f"{'(' if open_low else '['}{low:g}, {high:g}{')' if open_high else ']'}"
-        raise ValueError(f"{name}: must be finite and in {interval} {what}, got {value!r}")
-    return x
-
-
-def _CheckProbability(name: str, value) -> float:
-    return _CheckScalar(name, value, 0.0, 1.0, "(probability)", open_low=True, open_high=True)
 
 
 def _CheckArray(name: str, value, *, nonnegative: bool, what: str) -> np.ndarray:
@@ -305,8 +284,8 @@ class UniformDrops:
     b: float
 
     def __post_init__(self):
-        a = _CheckScalar("UniformDrops.a", self.a, 0.0, 1.0, "(SoC fraction)", open_high=True)
-        b = _CheckScalar("UniformDrops.b", self.b, 0.0, 1.0, "(SoC fraction)", open_low=True)
+        a = CheckNumber("UniformDrops.a", self.a, 0.0, 1.0, "(SoC fraction)", open_high=True)
+        b = CheckNumber("UniformDrops.b", self.b, 0.0, 1.0, "(SoC fraction)", open_low=True)
         if not a < b:
             raise ValueError(f"UniformDrops.a: must be < b = {b:g}, got {a:g}")
         object.__setattr__(self, "a", a)
@@ -340,7 +319,7 @@ class ExponentialDrops:
 
     def __post_init__(self):
         soc = "(SoC fraction)"
-        mean = _CheckScalar(
+        mean = CheckNumber(
             "ExponentialDrops.mean", self.mean, 0, 1, soc, open_low=True, open_high=True
         )
         object.__setattr__(self, "mean", mean)
@@ -367,9 +346,7 @@ class EmpiricalDrops:
 
     def __post_init__(self):
         values = tuple(
-            _CheckScalar(
-                f"EmpiricalDrops.values[{i}]", v, 0.0, 1.0, "(SoC fraction)", open_low=True
-            )
+            CheckNumber(f"EmpiricalDrops.values[{i}]", v, 0.0, 1.0, "(SoC fraction)", open_low=True)
             for i, v in enumerate(np.atleast_1d(np.asarray(self.values, dtype=object)))
         )
         if not values:
@@ -415,7 +392,7 @@ class FaultModel:
     sizes: UniformDrops | ExponentialDrops | EmpiricalDrops
 
     def __post_init__(self):
-        rate = _CheckScalar("FaultModel.rate", self.rate, 0.0, math.inf, "[1/s]", open_high=True)
+        rate = CheckNumber("FaultModel.rate", self.rate, 0.0, math.inf, "[1/s]", open_high=True)
         object.__setattr__(self, "rate", rate)
         if not isinstance(self.sizes, _SIZE_KINDS):
             raise ValueError(
@@ -537,8 +514,8 @@ def MarginAtRisk(model: FaultModel, exposure, eps: float, *, tolerance: float = 
     sizes, else doubled from 1) to a bracket of width <= ``tolerance``; returns the bracket's upper
     end, so the tail there is <= eps and the true minimum is at most ``tolerance`` below. 0 when
     even m = 0 meets eps. eps must be in [1e-9, 1) (above the tails' truncation)."""
-    eps = _CheckScalar("eps", eps, 1e-9, 1.0, "(probability)", open_high=True)
-    tolerance = _CheckScalar("tolerance", tolerance, 1e-14, 1.0, "(SoC fraction)")
+    eps = CheckNumber("eps", eps, 1e-9, 1.0, "(probability)", open_high=True)
+    tolerance = CheckNumber("tolerance", tolerance, 1e-14, 1.0, "(SoC fraction)")
     tau = _CheckArray("exposure", exposure, nonnegative=True, what="[s]")
     _CheckExpected("exposure", model.rate * tau)
     top = model.sizes.upper
@@ -596,7 +573,7 @@ def ExcessRiskBounds(
     ``plan_time`` τ_p and ``lowest_time`` τ_0 [s] are remaining mission times, ``plan_margin`` m_p
     and ``lowest_margin`` m_0 [-] fault-free end SoC minus reserve; all broadcast (one entry per
     candidate). Both bounds are 0 for the lowest plan itself; their gap shrinks as 1/``cells``."""
-    cells = _CheckCount("cells", cells, 1, 4096)
+    cells = CheckCount("cells", cells, 1, 4096)
     args = [
         _CheckArray("plan_time", plan_time, nonnegative=True, what="[s]"),
         _CheckArray("plan_margin", plan_margin, nonnegative=False, what="(SoC fraction)"),
@@ -634,54 +611,3 @@ def ExcessRisk(
         model, plan_time, plan_margin, lowest_time, lowest_margin, cells=cells
     )
     return upper
-
-
-def _CheckCount(name: str, value, low: int, high: float) -> int:
-    """``value`` as an int in [low, high], or a one-line ValueError naming ``name``."""
-    x = _CheckScalar(name, value, low, high, "(an integer)")
-    if x != math.floor(x):
-        raise ValueError(f"{name}: must be an integer, got {value!r}")
-    return int(x)
-
-
-def ClopperPearsonUpper(failures: int, trials: int, confidence: float = 0.95) -> float:
-    """Exact one-sided upper confidence bound p_U of a failure probability from ``failures`` k of
-    ``trials`` n: the p with P(Binomial(n, p) <= k) = 1 − ``confidence``.
-
-    1 for k = n; 1 − (1 − confidence)^(1/n) for k = 0; otherwise bisection (to the last bit,
-    deterministic; the upper end is returned) on the binomial CDF summed in log space."""
-    n = _CheckCount("trials", trials, 1, math.inf)
-    k = _CheckCount("failures", failures, 0, n)
-    alpha = 1.0 - _CheckProbability("confidence", confidence)
-    if k == n:
-        return 1.0
-    if k == 0:
-        return float(-np.expm1(math.log(alpha) / n))
-    i = np.arange(k + 1)
-    log_comb = math.lgamma(n + 1.0) - np.array(
-        [math.lgamma(j + 1.0) + math.lgamma(n - j + 1.0) for j in range(k + 1)]
-    )
-    lo, hi = 0.0, 1.0
-    for _ in range(200):
-        p = 0.5 * (lo + hi)
-        if not lo < p < hi:
-            break
-        terms = log_comb + i * math.log(p) + (n - i) * math.log1p(-p)
-        top = float(terms.max())
-        log_cdf = top + math.log(float(np.sum(np.exp(terms - top))))
-        lo, hi = (p, hi) if log_cdf > math.log(alpha) else (lo, p)
-    return hi
-
-
-def WorldsNeeded(eps: float, confidence: float = 0.95) -> int:
-    """The fewest failure-free trials n with ClopperPearsonUpper(0, n, confidence) <= ``eps``:
-    ⌈ln(1 − confidence) / ln(1 − eps)⌉, checked against the bound itself (299 for eps = 0.01,
-    59 for eps = 0.05, at 95 %)."""
-    eps = _CheckProbability("eps", eps)
-    conf = _CheckProbability("confidence", confidence)
-    n = max(1, math.ceil(math.log(1.0 - conf) / math.log1p(-eps)))
-    while ClopperPearsonUpper(0, n, conf) > eps:
-        n += 1
-    while n > 1 and ClopperPearsonUpper(0, n - 1, conf) <= eps:
-        n -= 1
-    return n

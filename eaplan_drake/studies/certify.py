@@ -10,13 +10,15 @@ mismatch), and the studies machinery (:func:`~eaplan_drake.studies.sweep.RunStud
 locally, Dask on a cluster, resumable) flies the static lowest plan and the scenario's policy on
 each. :func:`Certify` counts, on the worlds where the lowest plan completes, the missions the
 policy loses: k excess failures in n such worlds. The rate k/n comes with its exact one-sided
-upper confidence bound (Clopper–Pearson, :func:`~eaplan_drake.planning.risk.ClopperPearsonUpper`),
-and the scenario is *certified at ε* only when that bound is at most ε.
+upper confidence bound (Clopper–Pearson,
+:func:`~eaplan_drake.studies.statistics.ClopperPearsonUpper`), and the scenario is *certified
+at ε* only when that bound is at most ε.
 
 What it does not mean: a certificate is about the world distribution it was measured on (a user's
 real wind and faults may be harsher: certify with a mismatched fault model to see how much), and
 it bounds the rate, not any one mission. With no failure at all, n worlds bound the rate by
-1 − 0.05^(1/n): 59 worlds for 5 %, 299 for 1 % (:func:`~eaplan_drake.planning.risk.WorldsNeeded`).
+1 − 0.05^(1/n): 59 worlds for 5 %, 299 for 1 %
+(:func:`~eaplan_drake.studies.statistics.WorldsNeeded`).
 """
 
 import dataclasses as dc
@@ -26,7 +28,7 @@ import numpy as np
 
 from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
 from eaplan_drake.params import FaultModelParams
-from eaplan_drake.planning.risk import ClopperPearsonUpper, WorldsNeeded
+from eaplan_drake.studies.statistics import ClopperPearsonUpper, WorldsNeeded
 from eaplan_drake.studies.sweep import LOWEST, Study
 
 __all__ = ["CERTIFY_RANGES", "Certificate", "Certify", "CertifyReport", "CertifyStudy"]
