@@ -145,12 +145,12 @@ def _Simulate(args) -> int:
         scenario.planner.policy = args.policy
         scenario.name = f"{scenario.name}_{args.policy}"
         scenario.Validate()
-    ResolveScenario(scenario)  # every scenario error before the flight
+    resolved = ResolveScenario(scenario)  # every scenario error before the flight, resolved once
     out = Path(args.out) / scenario.name
     out.parent.mkdir(parents=True, exist_ok=True)  # and an unusable --out
     print(f"simulating {scenario.name} ...", file=sys.stderr, flush=True)
     bar = ProgressBar(scenario.name)
-    log = Simulate(scenario, progress=FlightProgress(scenario, bar), progress_interval=2.0)
+    log = Simulate(resolved, progress=FlightProgress(scenario, bar), progress_interval=2.0)
     bar.Close(log.summary["end_reason"], fraction=1.0)
     written = [f.name for f in SaveFlight(log, scenario, out, replay=args.replay)]
     print(_FormatSummary(log.summary))

@@ -26,7 +26,7 @@ from eaplan_drake.flight.plant import NonFiniteCommandError
 from eaplan_drake.flightlog import FlightLog, NormaliseParameters, Quality, QualityMetric
 from eaplan_drake.params import CheckType, Scenario
 from eaplan_drake.planning.planner import PlannerPolicy
-from eaplan_drake.resolve import ResolveScenario
+from eaplan_drake.resolve import ResolvedScenario, ResolveScenario
 
 __all__ = [
     "EndReason",
@@ -45,7 +45,7 @@ STATUS_NUMERICAL = "numerical_failure"
 
 
 def Simulate(
-    scenario: Scenario,
+    scenario: Scenario | ResolvedScenario,
     progress: Callable[[float, float, float], None] | None = None,
     progress_interval: float = 60.0,
     *,
@@ -61,7 +61,8 @@ def Simulate(
     :func:`~eaplan_drake.diagram.MakeEaplanDiagram`). With ``planner.policy: hindsight`` the
     result is the best flight of :func:`FlyHindsight` (several static flights).
 
-    The scenario is resolved first (:func:`~eaplan_drake.resolve.ResolveScenario`); a bad
+    The scenario is resolved first (:func:`~eaplan_drake.resolve.ResolveScenario`; a caller that
+    has resolved it already passes the :class:`~eaplan_drake.resolve.ResolvedScenario`); a bad
     scenario or argument raises :class:`ScenarioError` (one line naming the key or argument)
     before anything is flown. A state or command that becomes NaN or infinite ends the flight
     with status ``numerical_failure``.
@@ -70,8 +71,12 @@ def Simulate(
     for "brownout" and "reserve_reached", all updates at that time applied), so ``duration`` is
     that update's time and ``final_soc`` the battery's SoC after it.
     """
-    _CheckSimulateArguments(scenario, progress, progress_interval, policy)
-    resolved = ResolveScenario(scenario)  # validated once, every file loaded, values derived
+    if isinstance(scenario, ResolvedScenario):
+        resolved, scenario = scenario, scenario.scenario
+        _CheckSimulateArguments(scenario, progress, progress_interval, policy)
+    else:
+        _CheckSimulateArguments(scenario, progress, progress_interval, policy)
+        resolved = ResolveScenario(scenario)  # validated once, every file loaded, values derived
     if policy is None and scenario.planner.policy == "hindsight":
         return FlyHindsight(scenario, progress, progress_interval)
     wall_start = time.perf_counter()

@@ -5,6 +5,7 @@ import numpy as np
 
 from eaplan_drake.energy.battery import STATUS_BROWNOUT, STATUS_RESERVE
 from eaplan_drake.loading import LoadScenario
+from eaplan_drake.resolve import ResolveScenario
 from eaplan_drake.simulation import EndReason, Simulate, _EventTime
 
 # -- termination and chunks (short flights) ----------------------------------------------------
@@ -25,7 +26,7 @@ def test_progress_chunks_do_not_change_the_flight():
     scenario = LoadScenario(data="simulation: {time_limit: 3.0}\n")
     calls = []
     with_progress = Simulate(scenario, lambda t, b, c: calls.append((t, b, c)), 0.37)
-    without = Simulate(scenario)
+    without = Simulate(ResolveScenario(scenario))  # resolved by the caller: the same flight
     np.testing.assert_array_equal(with_progress.times, without.times)
     for name, values in without.signals.items():
         np.testing.assert_array_equal(with_progress[name], values, err_msg=name)

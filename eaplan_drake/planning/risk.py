@@ -65,8 +65,9 @@ Recursive feasibility: for the lowest plan F_p = F_0, so its excess risk is 0 (r
 and the constraint R(p) <= ε admits it from every state, after every drop. Its own risk P(F_0) is
 the world's, not an excess, and is reported apart. ε bounds one decision given the state (the
 mpc spends one budget per mission, :mod:`eaplan_drake.planning.risk_margin`); the rate over whole
-missions is what Monte Carlo over worlds certifies (:mod:`eaplan_drake.studies.certify`). In a thin world (m_0 small against the drops) the lowest plan survives by
-little, and a plan that spends more loses those worlds: its excess risk is large.
+missions is what Monte Carlo over worlds certifies (:mod:`eaplan_drake.studies.certify`). In a
+thin world (m_0 small against the drops) the lowest plan survives by little, and a plan that
+spends more loses those worlds: its excess risk is large.
 """
 
 import dataclasses as dc
