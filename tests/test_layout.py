@@ -233,3 +233,18 @@ def test_modules_over_700_lines_are_long_by_design():
 
 def test_functions_over_80_lines_are_long_by_design():
     assert [name for name, _ in LongFunctions() if name not in LONG_BY_DESIGN] == []
+
+
+def test_the_layout_tables_name_every_module():
+    """docs/design.rst names every module (``eaplan_drake.x.y`` or ``~eaplan_drake.x.y``) and
+    CONTRIBUTING.md every file (``y.py``) of the package: the layout tables stay current."""
+    root = PACKAGE.parent
+    design = (root / "docs" / "design.rst").read_text()
+    contributing = (root / "CONTRIBUTING.md").read_text()
+    modules = sorted(m for m in ImportGraph() if m != "eaplan_drake")
+    packages = {m for m in modules if (PACKAGE / Path(*m.split(".")[1:]) / "__init__.py").exists()}
+    modules = [m for m in modules if m != "eaplan_drake.__main__"]
+    missing_design = [m for m in modules if m not in packages and m not in design]
+    files = [m.split(".")[-1] + ".py" for m in modules if m not in packages]
+    missing_contributing = [f for f in files if f"`{f}`" not in contributing]
+    assert missing_design == [] and missing_contributing == []
