@@ -68,24 +68,29 @@ def _FormatSummary(summary: dict) -> str:
             + f", {planner.get('failures', 0)} solver fallbacks"
         ]
         solved = [t for t in planner.get("solve_times") or [] if t and t > 0.0]
+        kinds = planner.get("kinds") or {}
         if not steps:
             planning.append(f"{indent}no planner step: the flight ended before the first one")
+        elif kinds:
+            planning.append(indent + _DecisionKinds(kinds, steps, solved))
         elif solved:
-            unsolved = steps - len(solved)
             planning.append(
                 f"{indent}NLP solved at {len(solved)} of {steps} steps, "
                 f"median {1e3 * statistics.median(solved):.1f} ms"
-                + (
-                    f"; the lowest plan flown unsolved at the other {unsolved} (it was not "
-                    "feasible with its margin)"
-                    if policy == "mpc" and unsolved > 0
-                    else ""
-                )
             )
         elif "solve_times" not in planner and planner.get("median_solve_time"):
             planning.append(f"{indent}median solve {1e3 * planner['median_solve_time']:.1f} ms")
         else:  # a policy that solves no NLP: say so, not "median solve 0.0 ms"
             planning.append(indent + info.without_solve)
+        unpriced = kinds.get("unpriced", 0)
+        if unpriced:
+            why = planner.get("first_status", {}).get("unpriced", "")
+            why = why.removeprefix("unpriced: ").removesuffix("; the lowest plan")
+            planning.append(
+                f"{indent}{unpriced} steps whose fault risk could not be priced (first: {why}); "
+                "flew the lowest plan there, flagged infeasible"
+            )
+        infeasible -= unpriced + kinds.get("invalid", 0)
         if infeasible:
             why, what = InfeasibleCause(policy)
             planning.append(f"{indent}{infeasible} steps where {why}; {what}")
@@ -107,6 +112,28 @@ def _FormatSummary(summary: dict) -> str:
     if "hindsight" in summary:
         lines.append(f"hindsight       {len(summary['hindsight'])} static flights flown")
     return "\n".join(lines)
+
+
+_KIND_TEXTS = {
+    "determined": "decided exactly on the table's grid without a solve at {}",
+    "fallback": "the solver failed at {} (c1 kept, the best admissible c2)",
+    "lowest": "the lowest plan at {} (its margin not met yet, infeasible, or after a drop)",
+    "invalid": "an observation not finite at {}",
+}
+
+
+def _DecisionKinds(kinds: dict, steps: int, solved: list) -> str:
+    """How a policy that reports its decisions' kinds decided its steps, in one line."""
+    import statistics
+
+    parts = []
+    if kinds.get("solved"):
+        median = f", median {1e3 * statistics.median(solved):.1f} ms" if solved else ""
+        parts.append(f"NLP solved at {kinds['solved']} of {steps} steps{median}")
+    else:
+        parts.append(f"no NLP solved in {steps} steps")
+    parts += [text.format(kinds[k]) for k, text in _KIND_TEXTS.items() if kinds.get(k)]
+    return "; ".join(parts)
 
 
 def _Simulate(args) -> int:

@@ -139,3 +139,72 @@ def test_the_risk_reserve_margin_is_within_the_budget_and_below_the_lowest_plans
     assert np.all(np.diff(margin.margins) >= 0.0)  # longer plans need more
     looser = reserve.Margin(0.0, times, 150.0, 0.2, 0.04)
     assert np.all(looser.margins <= margin.margins)
+
+
+def _RiskStep(problems, case, **kwargs):
+    pb = problems[case["table"], "risk"]
+    args = (case["q"], case["var"], case["soc"], GOLDEN["period"], case["t_rem"], pb.table.upper)
+    return pb, pb.StepFromState(*args, **kwargs)
+
+
+def test_a_state_the_risk_tables_cannot_price_is_infeasible_and_never_raises(problems):
+    case = next(c for c in GOLDEN["cases"] if c["setting"] == "risk" and c["brute"][-1])
+    pb, _ = _RiskStep(problems, case)
+    exposure = pb.risk_reserve.max_exposure
+    assert pb.risk_reserve.fault_model.rate * exposure <= 100.0  # MAX_EXPECTED_DROPS
+    # a survey longer than the tables price (a crawling aircraft, a huge field)
+    long = dict(case, t_rem=[exposure + 100.0 + t for t in case["t_rem"]])
+    _, step = _RiskStep(problems, long)
+    assert not step.priced and "exceed" in step.margin.why
+    assert not step.Lowest().feasible and not step.BruteForce().feasible
+    # an estimate whose prediction browns the battery out: the lowest plan's margin is -inf
+    brownout = dict(case, q=[1e6] + case["q"][1:])
+    _, step = _RiskStep(problems, brownout)
+    assert not step.priced and "not finite" in step.margin.why
+    assert not step.Lowest().feasible and not step.NominallyFeasible()
+    # an anchor whose margin is not finite (a state that browned out when the budget opened)
+    _, step = _RiskStep(problems, case, anchor=(100.0, -np.inf))
+    _, plain = _RiskStep(problems, case)
+    assert step.priced and step.MarginRow().tolist() == plain.MarginRow().tolist()
+    # a fault rate whose tables stop short of the longest plan: only the plans longer than the
+    # tables are unpriced, and excluded; the rest are priced as before
+    planner = PlannerParams(reserve="risk")
+    planner.fault_model.rate = 0.01
+    frequent = MissionProblem(planner, pb.table, GOLDEN["order"], BatteryParams(), GOLDEN["grid"])
+    exposure = frequent.risk_reserve.max_exposure
+    assert exposure == 8192.0
+    t_rem = np.linspace(300.0, exposure + 500.0, len(GOLDEN["grid"]))
+    step = frequent.StepFromState(case["q"], 0.0, 1.0, GOLDEN["period"], t_rem, pb.table.upper)
+    assert step.priced
+    unpriced = step.margin.times > exposure
+    reach = step.margin.lowest_state[1] + 0.01  # UNREACHABLE_MARGIN above m_0
+    assert unpriced.any() and np.all(step.margin.margins[unpriced] == reach)
+    assert np.all(step.margin.margins[~unpriced] <= reach)
+
+
+def test_the_policy_flies_the_lowest_plan_and_says_so_when_it_cannot_price(problems):
+    from eaplan_drake.planning.planner import PlannerObservation
+    from eaplan_drake.planning.policies import MpcPolicy
+
+    case = next(c for c in GOLDEN["cases"] if c["setting"] == "risk" and c["brute"][-1])
+    pb = problems[case["table"], "risk"]
+    policy = MpcPolicy(pb)
+    exposure = pb.risk_reserve.max_exposure
+    long = [exposure + 100.0 + t for t in case["t_rem"]]
+    for t_rem, q in ((long, case["q"]), (case["t_rem"], [1e6] + case["q"][1:])):
+        o = PlannerObservation(
+            time=100.0,
+            energy_coefficients=np.asarray(q),
+            mean_power_variance=case["var"],
+            soc=case["soc"],
+            period=GOLDEN["period"],
+            coverage_remaining=0.5,
+            remaining_time=np.asarray(t_rem),
+            path_parameter=0.0,
+            computation_parameters=np.asarray(pb.table.upper, dtype=float),
+        )
+        d = policy.Plan(o, policy.InitialMemory())
+        assert d.kind == "unpriced" and not d.feasible and d.success
+        assert d.status.startswith("unpriced: ")
+        assert d.path_parameter == pb.grid[0]
+        np.testing.assert_array_equal(d.computation_parameters, pb.candidates[pb.lowest_candidate])

@@ -9,16 +9,21 @@ b_res (:doc:`/planner`, Eq. (3)), one model per kind of reserve:
 - :class:`TimedReserveMargin`: m_fault(t) = R_f min(1, t/τ_f) (``reserve: fixed``, τ_f > 0);
 - :class:`RiskMargin`: m_fault(t) = m_req(t), the margin that keeps a plan's excess risk within
   the step's budget ε_k (``reserve: risk``, :mod:`eaplan_drake.planning.risk_margin`), built for one
-  planner step by :class:`RiskReserve`.
+  planner step by :class:`RiskReserve`;
+- :class:`UnpricedMargin`: m_fault = +∞, a step the risk tables cannot price (the lowest plan's
+  own margin not finite, or its exposure beyond what the tables hold): no plan is feasible, and
+  the planner flies the lowest plan and says so.
 
 Each answers m(t) (:meth:`Margin.At`), dm/dt (:meth:`Margin.Slope`) and the margin the
 recursive-feasibility condition (2) asks of the lowest plan (:meth:`Margin.Recursive`). A margin
 is built for one planner step (its uncertainty rate z s_b σ_α0 [1/s] is the step's).
 """
 
+import math
+
 import numpy as np
 
-from eaplan_drake.params import PlannerParams
+from eaplan_drake.params import MAX_EXPECTED_DROPS, PlannerParams
 from eaplan_drake.planning.interpolation import Pchip, PchipSlopes
 from eaplan_drake.planning.risk_margin import (
     UNREACHABLE_MARGIN,
@@ -35,6 +40,7 @@ __all__ = [
     "RiskReserve",
     "StepMargin",
     "TimedReserveMargin",
+    "UnpricedMargin",
 ]
 
 
@@ -148,6 +154,24 @@ class RiskMargin(Margin):
         return self.floor + self.rate * np.asarray(t, dtype=float)
 
 
+class UnpricedMargin(Margin):
+    """m_fault(t) = +∞: a step whose risk cannot be priced (``why`` says what was out of range);
+    (2) asks m_floor + rate · t of the lowest plan, as with :class:`RiskMargin`."""
+
+    def __init__(self, floor: float, rate: float, why: str):
+        super().__init__(floor, rate if math.isfinite(rate) else 0.0)
+        self.why = why
+
+    def FaultReserve(self, t):
+        return np.full_like(t, np.inf)
+
+    def FaultReserveSlope(self, t: float) -> float:
+        return 0.0
+
+    def Recursive(self, t):
+        return self.floor + self.rate * np.asarray(t, dtype=float)
+
+
 class RiskReserve:
     """The risk reserve of a flight (``planner.reserve: risk``): the fault model and its risk
     tables (built once per exposure bucket and kept), from which each step's
@@ -161,6 +185,17 @@ class RiskReserve:
         self.fault_model = FaultModelFromParams(planner.fault_model)
         self.floor = float(planner.margin_floor)
         self._tables: dict = {}
+        rate = self.fault_model.rate
+        bucket = math.inf
+        if rate > 0.0:  # the largest table whose expected drops stay within the risk module's
+            bucket = ExposureBucket(0.0)
+            while rate * 2.0 * bucket <= MAX_EXPECTED_DROPS:
+                bucket *= 2.0
+            if rate * bucket > MAX_EXPECTED_DROPS:
+                bucket = 0.0
+        self.max_exposure = bucket
+        """The longest exposure [s] the risk tables price (λ × it ≤ ``MAX_EXPECTED_DROPS``); a
+        plan longer than this cannot be priced and is infeasible."""
 
     def Table(self, exposure: float):
         """The :class:`~eaplan_drake.planning.risk_margin.ExcessRiskTable` for exposures up to
@@ -189,15 +224,30 @@ class RiskReserve:
             times = times[np.concatenate(([True], times[1:] != times[:-1]))]
         else:
             times = np.unique(times)
-        table = self.Table(float(times[-1]))
-        m_0 = float(lowest_margin)
+        m_0, tau_0 = float(lowest_margin), float(lowest_time)
+        if not (math.isfinite(m_0) and math.isfinite(rate)):
+            return UnpricedMargin(
+                self.floor, rate, "the lowest plan's predicted margin is not finite"
+            )
+        if not tau_0 <= self.max_exposure:
+            return UnpricedMargin(
+                self.floor,
+                rate,
+                f"the lowest plan's {tau_0:.0f} s of survey exceed the {self.max_exposure:g} s "
+                "the fault model's tables price",
+            )
+        priced = times <= self.max_exposure
+        table = self.Table(float(times[priced][-1]))
         baseline = None
         if anchor is not None:
             tau_a, m_a = anchor
-            baseline = float(table.LowestFailure(max(tau_a, 0.0), m_a))
-        margins = table.RequiredMargin(times, float(lowest_time), m_0, float(budget), baseline)
-        # a plan no margin keeps within ε needs more than the lowest plan has: just above m_0
-        # (not +inf), which excludes it as surely and keeps the NLP's constraint gentle
+            if math.isfinite(m_a) and tau_a <= self.max_exposure:
+                baseline = float(table.LowestFailure(max(tau_a, 0.0), m_a))
+        margins = np.full(times.size, np.inf)
+        margins[priced] = table.RequiredMargin(times[priced], tau_0, m_0, float(budget), baseline)
+        # a plan no margin keeps within ε (or too long to price: its excess risk counts as 1)
+        # needs more than the lowest plan has: just above m_0 (not +inf), which excludes it as
+        # surely and keeps the NLP's constraint gentle
         margins = np.minimum(margins, max(m_0, 0.0) + UNREACHABLE_MARGIN)
         return RiskMargin(self.floor, rate, times, margins, (lowest_time, m_0), budget)
 

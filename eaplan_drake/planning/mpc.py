@@ -32,7 +32,13 @@ from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
 from eaplan_drake.params import MAX_TIME_LIMIT, BatteryParams, PlannerParams
 from eaplan_drake.planning import grid_search
-from eaplan_drake.planning.margins import FloorMargin, Margin, RiskReserve, StepMargin
+from eaplan_drake.planning.margins import (
+    FloorMargin,
+    Margin,
+    RiskReserve,
+    StepMargin,
+    UnpricedMargin,
+)
 from eaplan_drake.planning.prediction import GridCandidates, PowerSurrogate, SimpsonSoc
 from eaplan_drake.planning.smooth import SmoothModel
 
@@ -300,7 +306,7 @@ class StepPrediction:
             browns = self.battery_model.IsBrownout(y)
             for column, k in enumerate(keys):
                 soc = np.ascontiguousarray(socs[:, column])
-                brown = browns[:, column]
+                brown = browns[:, column] | np.isnan(y[:, column])
                 if np.any(brown):
                     first = int(np.argmax(brown))
                     soc[(first + 1) // 2 :] = -np.inf
@@ -339,6 +345,12 @@ class MissionStep:
         self._recursive = None
         self._nominal = None
         self._smooth = None
+
+    @property
+    def priced(self) -> bool:
+        """False when the step's risk cannot be priced (an
+        :class:`~eaplan_drake.planning.margins.UnpricedMargin`): no plan is feasible."""
+        return not isinstance(self.margin, UnpricedMargin)
 
     @property
     def risk_budget(self) -> float:

@@ -32,6 +32,7 @@ from eaplan_drake.energy.fourier import StateSize
 from eaplan_drake.params import PlannerParams
 
 __all__ = [
+    "DECISION_KINDS",
     "PlannerDecision",
     "PlannerObservation",
     "PlannerPolicy",
@@ -91,6 +92,19 @@ class PlannerDecision:
     required_end_soc: float = math.nan
     """The SoC the policy requires at the end [-] (mpc: reserve + margin m(t_rem) of the chosen
     c1; NaN for a policy that does not require one)."""
+    kind: str = ""
+    """How the decision was reached, counted in the statistics (mpc: :data:`DECISION_KINDS`)."""
+
+
+DECISION_KINDS = {
+    "solved": "the NLP solved and its answer mapped onto the grids",
+    "determined": "decided exactly on the table's grid, without a solve",
+    "fallback": "the solver failed: c1 kept, the best admissible c2",
+    "lowest": "the lowest plan: uncertain (the margin not met yet), infeasible, or after a drop",
+    "unpriced": "the risk could not be priced: the lowest plan, infeasible",
+    "invalid": "an observation not finite: the lowest plan, infeasible",
+}
+"""The kinds of the mpc's decisions (:attr:`PlannerDecision.kind`)."""
 
 
 class PlannerPolicy:
@@ -254,6 +268,8 @@ class PlannerScheduler(LeafSystem):
         self._solves = 0
         self._failures = 0
         self._infeasible = 0
+        self._kinds: dict[str, int] = {}
+        self._first_status: dict[str, str] = {}
         self._solve_times: list[float] = []
         self._step_times: list[float] = []
 
@@ -261,7 +277,9 @@ class PlannerScheduler(LeafSystem):
         """Solve statistics since construction / :meth:`reset_statistics` (Python-side).
 
         Keys: solves (planner steps), failures (failed solves answered by the deterministic
-        fallback), infeasible (steps whose policy constraint could not be met), solve_times and
+        fallback), infeasible (steps whose policy constraint could not be met), kinds (steps
+        per :attr:`PlannerDecision.kind`, for a policy that says) and first_status (the status
+        of the first step of each kind), solve_times and
         step_times [s] (solver only / the whole step), median_solve_time, p95_solve_time,
         median_step_time, p95_step_time [s] (None before the first solve).
         """
@@ -274,6 +292,8 @@ class PlannerScheduler(LeafSystem):
             "solves": self._solves,
             "failures": self._failures,
             "infeasible": self._infeasible,
+            "kinds": dict(self._kinds),
+            "first_status": dict(self._first_status),
             "solve_times": list(self._solve_times),
             "step_times": list(self._step_times),
             "median_solve_time": pct(self._solve_times, 50),
@@ -309,6 +329,9 @@ class PlannerScheduler(LeafSystem):
             self._failures += 1
         if not decision.feasible:
             self._infeasible += 1
+        if decision.kind:
+            self._kinds[decision.kind] = self._kinds.get(decision.kind, 0) + 1
+            self._first_status.setdefault(decision.kind, decision.status)
         discrete_state.get_mutable_vector(self._c1_index).SetAtIndex(
             0, float(decision.path_parameter)
         )

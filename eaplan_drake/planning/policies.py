@@ -78,7 +78,7 @@ def _InvalidInput(problem: MissionProblem, memory) -> PlannerDecision:
     """A non-finite observation: the lowest plan, counted as a failed, infeasible step."""
     low = problem.candidates[problem.lowest_candidate]
     return PlannerDecision(
-        float(problem.grid[0]), low.copy(), memory, False, False, "invalid input"
+        float(problem.grid[0]), low.copy(), memory, False, False, "invalid input", kind="invalid"
     )
 
 
@@ -227,11 +227,12 @@ class MpcPolicy(PlannerPolicy):
                 True,
                 bool(low.feasible) or step.NominallyFeasible(),
                 "after a SoC drop: the lowest plan to the end",
+                kind="lowest",
                 **_Prediction(pb, low),
             )
         else:
             d = self._Plan(o, warm, step)
-            if tail.anchor_end < 0.0:
+            if tail.anchor_end < 0.0 and step.priced:
                 tau_0, m_0 = step.margin.lowest_state
                 tail.anchor_end, tail.anchor_margin = float(o.time) + tau_0, m_0
         power = float(pb.table.power(np.asarray(d.computation_parameters, dtype=float)))
@@ -243,6 +244,17 @@ class MpcPolicy(PlannerPolicy):
         o = observation
         pb = self.problem
         low = step.Lowest()
+        if not step.priced:  # what cannot be priced is infeasible: the lowest plan, said so
+            return PlannerDecision(
+                low.path_parameter,
+                low.computation_parameters,
+                memory,
+                True,
+                False,
+                f"unpriced: {step.margin.why}; the lowest plan",
+                kind="unpriced",
+                **_Prediction(pb, low),
+            )
         if not low.feasible:
             nominal = step.NominallyFeasible()
             return PlannerDecision(
@@ -254,6 +266,7 @@ class MpcPolicy(PlannerPolicy):
                 "uncertain: the lowest plan until the estimate settles"
                 if nominal
                 else "infeasible: the lowest plan ends below reserve + margin",
+                kind="lowest",
                 **_Prediction(pb, low),
             )
         determined = DeterminedDecision(step)
@@ -268,6 +281,7 @@ class MpcPolicy(PlannerPolicy):
                 True,
                 True,
                 "determined without a solve",
+                kind="determined",
                 **_Prediction(pb, determined),
             )
         t0 = time.perf_counter()
@@ -296,6 +310,7 @@ class MpcPolicy(PlannerPolicy):
                 d.feasible,
                 f"solver failed: {status}",
                 solve_time,
+                kind="fallback",
                 **_Prediction(pb, d),
             )
         d = MapRelaxed(step, x[1:])
@@ -307,6 +322,7 @@ class MpcPolicy(PlannerPolicy):
             True,
             status,
             solve_time,
+            kind="solved",
             **_Prediction(pb, d),
         )
 
