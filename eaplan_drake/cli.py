@@ -119,6 +119,8 @@ _KIND_TEXTS = {
     "fallback": "the solver failed at {} (c1 kept, the best admissible c2)",
     "lowest": "the lowest plan at {} (its margin not met yet, infeasible, or after a drop)",
     "invalid": "an observation not finite at {}",
+    "chosen": "a static plan chosen at take-off ({} step)",
+    "held": "held at {}",
 }
 
 

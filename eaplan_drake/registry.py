@@ -145,6 +145,7 @@ POLICIES = Registry(
         "greedy_authors": "eaplan_drake.planning.policies:MakeGreedyAuthorsPolicy",
         "static": "eaplan_drake.planning.policies:MakeStaticPolicy",
         "hindsight": "eaplan_drake.planning.policies:MakeStaticPolicy",
+        "static_takeoff": "eaplan_drake.planning.policies:MakeStaticTakeoffPolicy",
     },
     info={
         "mpc": PolicyInfo(
@@ -171,6 +172,12 @@ POLICIES = Registry(
         ),
         "static": _HOLDS,
         "hindsight": _HOLDS,
+        "static_takeoff": PolicyInfo(
+            "even the lowest plan ends below the reserve at take-off",
+            "flew the lowest plan from then on",
+            "a static plan within the risk ε was chosen at take-off",
+            "no NLP solved: the static plan is chosen on the grids at take-off",
+        ),
     },
     default_info=PolicyInfo(),
 )

@@ -85,7 +85,15 @@ def test_a_registry_checks_builds_and_extends():
 
 
 def test_the_shipped_tables_name_every_choice():
-    assert POLICIES.Names() == ("mpc", "paper", "greedy", "greedy_authors", "static", "hindsight")
+    assert POLICIES.Names() == (
+        "mpc",
+        "paper",
+        "greedy",
+        "greedy_authors",
+        "static",
+        "hindsight",
+        "static_takeoff",
+    )
     assert AIRCRAFT_MODELS.Names() == ("continuous", "exact_arc")
     assert PLAN_SOURCES.Names() == ("zamboni", "plan_file", "field")
     assert BATTERY_MODELS.Names() == ("rint",)

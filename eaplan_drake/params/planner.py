@@ -110,7 +110,7 @@ class PlannerParams(_Params):
     """
 
     policy: str = "mpc"
-    """Planner policy, one of mpc, paper, greedy, greedy_authors, static, hindsight."""
+    """Planner policy, one of mpc, paper, greedy, greedy_authors, static, hindsight, static_takeoff."""
     period: float = 1.0
     """h_T, re-planning step [s]."""
     horizon: int = 6
@@ -247,6 +247,12 @@ class PlannerParams(_Params):
             self.reserve in RESERVE_RULES,
             f"{key}.reserve",
             f"must be one of {', '.join(RESERVE_RULES)}, got {self.reserve!r}",
+        )
+        _check(
+            self.policy != "static_takeoff" or self.reserve == "risk",
+            f"{key}.reserve",
+            f'must be "risk" with {key}.policy static_takeoff (it prices its plan with '
+            f"{key}.fault_model), got {self.reserve!r}",
         )
         _check(
             self.after_drop in ("replan", "lowest"),

@@ -103,8 +103,10 @@ DECISION_KINDS = {
     "lowest": "the lowest plan: uncertain (the margin not met yet), infeasible, or after a drop",
     "unpriced": "the risk could not be priced: the lowest plan, infeasible",
     "invalid": "an observation not finite: the lowest plan, infeasible",
+    "chosen": "static_takeoff: the static plan chosen at take-off",
+    "held": "static_takeoff: the plan chosen at take-off, held",
 }
-"""The kinds of the mpc's decisions (:attr:`PlannerDecision.kind`)."""
+"""The kinds of the mpc's (and static_takeoff's) decisions (:attr:`PlannerDecision.kind`)."""
 
 
 class PlannerPolicy:

@@ -23,6 +23,8 @@ a decision rule.
   time estimated from the elapsed time, t_rem = (t̂/t̄)(t̄ − t) with t̂ = t(c1) and t̄ = t(c̄1) of the
   Eq. 10 line, exceeds the predicted time to the reserve.
 - ``static`` (:class:`StaticPolicy`): hold the initial parameters.
+- ``static_takeoff`` (:class:`StaticTakeoffPolicy`): the pilot's baseline, the best static plan
+  within the risk ε chosen once at take-off and flown unchanged.
 - ``hindsight``: not a policy of the loop but the best constant pair of a grid flown on the same
   world (:func:`~eaplan_drake.simulation.FlyHindsight`); each of its flights is static.
 """
@@ -41,6 +43,7 @@ from eaplan_drake.planning.mpc import MissionProblem, MissionStep
 from eaplan_drake.planning.paper import Planner
 from eaplan_drake.planning.planner import PlannerDecision, PlannerObservation, PlannerPolicy
 from eaplan_drake.planning.relaxation import MissionProgram
+from eaplan_drake.planning.static_plan import BestStaticPlan
 from eaplan_drake.registry import POLICIES
 
 __all__ = [
@@ -58,6 +61,8 @@ __all__ = [
     "RiskMemory",
     "UNSET",
     "StaticPolicy",
+    "StaticTakeoffPolicy",
+    "MakeStaticTakeoffPolicy",
 ]
 
 
@@ -101,6 +106,48 @@ class StaticPolicy(PlannerPolicy):
     def Plan(self, observation, memory) -> PlannerDecision:
         return PlannerDecision(
             observation.path_parameter, observation.computation_parameters.copy(), memory
+        )
+
+
+class StaticTakeoffPolicy(PlannerPolicy):
+    """The pilot's baseline (``static_takeoff``): at its first step (take-off, once the estimate
+    has settled) the best static plan whose excess risk under ``planner.fault_model`` is within
+    ``planner.risk`` (:func:`~eaplan_drake.planning.static_plan.BestStaticPlan`), then that plan
+    unchanged to the end. Memory: [chosen (0 or 1), c1, c2…]."""
+
+    name = "static_takeoff"
+
+    def __init__(self, problem: MissionProblem):
+        if problem.risk_reserve is None:
+            raise ValueError(
+                "planner.policy: static_takeoff prices its plan with the risk reserve; "
+                'set planner.reserve: "risk"'
+            )
+        self.problem = problem
+
+    def InitialMemory(self) -> np.ndarray:
+        return np.zeros(2 + self.problem.table.num_parameters)
+
+    def Plan(self, observation, memory) -> PlannerDecision:
+        o, pb = observation, self.problem
+        if memory[0] > 0.0:
+            return PlannerDecision(
+                float(memory[1]), memory[2:].copy(), memory, status="held", kind="held"
+            )
+        if not _Finite(o):
+            return _InvalidInput(pb, memory)
+        step = pb.Step(o, budget=float(pb.params.risk))
+        d = BestStaticPlan(step, float(pb.params.risk))
+        held = np.concatenate(([1.0, d.path_parameter], d.computation_parameters))
+        return PlannerDecision(
+            d.path_parameter,
+            d.computation_parameters,
+            held,
+            True,
+            d.feasible,
+            "chosen at take-off" if d.feasible else "infeasible at take-off: the lowest plan",
+            kind="chosen" if d.feasible else "lowest",
+            **_Prediction(pb, d),
         )
 
 
@@ -461,6 +508,12 @@ def MakeGreedyPolicy(planner, table, order, battery, *, path_parameter_grid, int
     no_margin.margin_floor = no_margin.margin_sigmas = no_margin.fault_reserve = 0.0
     problem = MissionProblem(no_margin, table, order, battery, path_parameter_grid, integer)
     return GreedyPolicy(problem)
+
+
+def MakeStaticTakeoffPolicy(planner, table, order, battery, *, path_parameter_grid, integer, **_):
+    """``static_takeoff``: :class:`StaticTakeoffPolicy`, the best static plan at take-off."""
+    problem = MissionProblem(planner, table, order, battery, path_parameter_grid, integer)
+    return StaticTakeoffPolicy(problem)
 
 
 def MakeMpcPolicy(planner, table, order, battery, *, path_parameter_grid, integer, **_):
