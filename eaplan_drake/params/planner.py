@@ -110,7 +110,8 @@ class PlannerParams(_Params):
     """
 
     policy: str = "mpc"
-    """Planner policy, one of mpc, paper, greedy, greedy_authors, static, hindsight, static_takeoff."""
+    """Planner policy, one of mpc, paper, greedy, greedy_authors, static, hindsight,
+    static_takeoff."""
     period: float = 1.0
     """h_T, re-planning step [s]."""
     horizon: int = 6
