@@ -103,7 +103,21 @@ def Compare(a: Path, b: Path) -> tuple[list[str], list[str]]:
             if k != "summary" and k in y.files and not np.array_equal(x[k], y[k], equal_nan=True)
         ]
         sx, sy = _Summary(str(x["summary"])), _Summary(str(y["summary"]))
-    return differ + [f"summary.{k}" for k in sx if k in sy and sx[k] != sy[k]], new
+    return differ + [f"summary.{k}" for k in _Differ(sx, sy)], new
+
+
+def _Differ(x: dict, y: dict) -> list[str]:
+    """The keys both summaries have whose values differ (nested dicts key by key: statistics this
+    tree adds are new, not different)."""
+    out = []
+    for k in x:
+        if k not in y:
+            continue
+        if isinstance(x[k], dict) and isinstance(y[k], dict):
+            out += [f"{k}.{inner}" for inner in _Differ(x[k], y[k])]
+        elif x[k] != y[k]:
+            out.append(k)
+    return out
 
 
 def main() -> int:

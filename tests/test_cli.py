@@ -76,14 +76,42 @@ def test_summary_says_why_steps_were_infeasible_and_that_the_paper_solves_no_nlp
 def test_summary_of_the_mpc_gives_the_median_of_the_steps_that_solved():
     times = [0.010, 0.020, 0.0, 0.015]
     text = _FormatSummary(_Summary("mpc", solves=4, infeasible=1, failures=0, solve_times=times))
+    assert "NLP solved at 3 of 4 steps, median 15.0 ms" in text
+    assert "flown unsolved" not in text  # without the kinds, nothing is claimed of the others
+    kinds = {"solved": 3, "lowest": 1}
+    text = _FormatSummary(
+        _Summary("mpc", solves=4, infeasible=1, failures=0, solve_times=times, kinds=kinds)
+    )
     assert (
-        "NLP solved at 3 of 4 steps, median 15.0 ms; the lowest plan flown unsolved at the other "
-        "1 (it was not feasible with its margin)"
+        "NLP solved at 3 of 4 steps, median 15.0 ms; the lowest plan at 1 (its margin not met "
+        "yet, infeasible, or after a drop)"
     ) in text
     assert (
         "1 steps where even the lowest plan ends below reserve + margin; flew the lowest plan"
         in (text)
     )
+
+
+def test_summary_of_a_flight_decided_on_the_grid_says_so_and_counts_unpriced_steps():
+    """A fault-free flight whose steps were decided exactly on the grid says so (it never claims
+    the lowest plan was flown), and the steps the risk could not be priced are said apart."""
+    kinds = {"solved": 25, "determined": 330}
+    text = _FormatSummary(
+        _Summary("mpc", solves=355, infeasible=0, failures=0, solve_times=[0.005] * 25, kinds=kinds)
+    )
+    assert "decided exactly on the table's grid without a solve at 330" in text
+    assert "lowest plan" not in text
+    kinds = {"determined": 47, "lowest": 3, "unpriced": 110}
+    summary = _Summary("mpc", solves=160, infeasible=113, failures=0, solve_times=[], kinds=kinds)
+    summary["planner"]["first_status"] = {
+        "unpriced": "unpriced: the lowest plan's predicted margin is not finite; the lowest plan"
+    }
+    text = _FormatSummary(summary)
+    assert (
+        "110 steps whose fault risk could not be priced (first: the lowest plan's predicted "
+        "margin is not finite); flew the lowest plan there, flagged infeasible"
+    ) in text
+    assert "3 steps where even the lowest plan ends below reserve + margin" in text
 
 
 def test_summary_of_a_flight_that_ended_before_the_first_planner_step():
