@@ -1,7 +1,8 @@
 """Policies against each other, the static lowest plan and hindsight, on seeded random worlds.
 
     python3 benchmarks/bench_policies.py [--worlds 130] [--first-seed 0] [--hindsight 30]
-        [--jobs 2] [--policies mpc,greedy,paper,greedy_authors] [--planner KEY=VALUE ...]
+        [--jobs 2] [--policies mpc,static_takeoff,greedy,paper,greedy_authors]
+        [--planner KEY=VALUE ...]
         [--rates fast|paper] [--out benchmarks/results/policies.json]
 
 Every world (:func:`eaplan_drake.studies.worlds.DrawWorld`, n seeds from --first-seed, of the
@@ -47,7 +48,7 @@ import numpy as np
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-DEFAULT_POLICIES = ("mpc", "greedy", "paper", "greedy_authors")
+DEFAULT_POLICIES = ("mpc", "static_takeoff", "greedy", "paper", "greedy_authors")
 
 
 def _Fly(task):
@@ -313,7 +314,8 @@ def main(argv=None) -> int:
 
     for p in policies:
         if p not in POLICIES or p == "hindsight":
-            ap.error(f"--policies: {p!r} is not one of {', '.join(POLICIES.Names()[:-1])}")
+            names = [n for n in POLICIES.Names() if n != "hindsight"]
+            ap.error(f"--policies: {p!r} is not one of {', '.join(names)}")
     t0 = time.perf_counter()
     base = WithRates(Scenario(name="bench"), args.rates)
     for item in args.planner:
