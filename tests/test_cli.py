@@ -6,9 +6,9 @@ import logging
 import pytest
 
 from eaplan_drake import __version__
-from eaplan_drake.cli import _FormatSummary
 from eaplan_drake.cli import main as cli_main
 from eaplan_drake.loading import ShippedNames
+from eaplan_drake.output.summary_text import FormatSummary as _FormatSummary
 
 
 def test_version_prints_the_package_version(capsys):

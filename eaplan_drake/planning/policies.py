@@ -331,22 +331,7 @@ class MpcPolicy(PlannerPolicy):
                 kind="determined",
                 **_Prediction(pb, determined),
             )
-        t0 = time.perf_counter()
-        # From the warm start, then (deterministically) from the lowest plan, which is feasible,
-        # then from the middle of the box.
-        for start in (memory, np.zeros_like(memory), np.full_like(memory, 0.5)):
-            try:
-                result = self.program.Solve(step, start)
-                ok = result.is_success()
-                status = result.get_solution_result().name
-                x = result.get_x_val() if ok else None
-            except RuntimeError as e:  # a solver error is a failed solve, never raised
-                ok, status, x = False, f"error: {e}", None
-            if ok:
-                break
-        solve_time = time.perf_counter() - t0
-        if ok and not np.all(np.isfinite(x)):
-            ok, status = False, "non-finite solution"
+        ok, status, x, solve_time = self._Solve(step, memory)
         if not ok:
             d = step.KeepPathParameter(o.path_parameter)
             return PlannerDecision(
@@ -372,6 +357,26 @@ class MpcPolicy(PlannerPolicy):
             kind="solved",
             **_Prediction(pb, d),
         )
+
+    def _Solve(self, step, memory):
+        """(ok, status, x, solve time [s]) of the NLP relaxation of ``step``: from the warm start,
+        then (deterministically) from the lowest plan, which is feasible, then from the middle of
+        the box; a solver error or a non-finite solution is a failed solve, never raised."""
+        t0 = time.perf_counter()
+        for start in (memory, np.zeros_like(memory), np.full_like(memory, 0.5)):
+            try:
+                result = self.program.Solve(step, start)
+                ok = result.is_success()
+                status = result.get_solution_result().name
+                x = result.get_x_val() if ok else None
+            except RuntimeError as e:
+                ok, status, x = False, f"error: {e}", None
+            if ok:
+                break
+        solve_time = time.perf_counter() - t0
+        if ok and not np.all(np.isfinite(x)):
+            ok, status = False, "non-finite solution"
+        return ok, status, x, solve_time
 
 
 class GreedyPolicy(PlannerPolicy):
