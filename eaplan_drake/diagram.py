@@ -43,6 +43,8 @@ from eaplan_drake.energy.sensor import AveragedVariance, PowerSensor
 from eaplan_drake.flight.guidance import VectorFieldGuidance
 from eaplan_drake.flight.plant import FixedWingPlant, MakeFixedWingPlant, MaxHeadingRate
 from eaplan_drake.flight.sequencer import StageSequencer
+from eaplan_drake.flight.wind import AddWindSource, WindSource
+from eaplan_drake.flight.wind_estimator import AddWindEstimator, WindEstimator
 from eaplan_drake.params import (
     BatteryParams,
     EstimatorParams,
@@ -52,6 +54,7 @@ from eaplan_drake.params import (
     SensorParams,
     SimulationParams,
     VehicleParams,
+    WindParams,
 )
 from eaplan_drake.planning.planner import PlannerPolicy, PlannerScheduler
 from eaplan_drake.planning.policies import MakePolicy
@@ -65,6 +68,9 @@ __all__ = [
     "AddGuidedAircraft",
     "AddPlannerScheduler",
     "AddSignalLoggers",
+    "AddWindEstimator",
+    "AddWindSource",
+    "WireWind",
     "EnergyLoop",
     "EnergyLoopArguments",
     "EstimatorOfSensor",
@@ -145,10 +151,12 @@ class GuidedAircraft:
     """The flight side added by :func:`AddGuidedAircraft`: the systems, and the sequencer's
     ``path_parameters`` input (c1 [m²]) that a planner or a constant drives."""
 
-    wind: ConstantVectorSource
+    wind: ConstantVectorSource | WindSource
     plant: FixedWingPlant
     sequencer: StageSequencer
     guidance: VectorFieldGuidance
+    wind_estimator: WindEstimator | None = None
+    """The aircraft's wind estimate (with ``wind.staircase: estimated``), else None."""
 
 
 @dc.dataclass(frozen=True)
@@ -177,9 +185,12 @@ def AddGuidedAircraft(
     path_parameter_grid: np.ndarray,
     initial_path_parameter: float,
     path_parameter: float | None = None,
+    wind_params: WindParams | None = None,
+    wind_seed: int = 0,
 ) -> GuidedAircraft:
     """Adds and wires the flight side to ``builder``: ``wind`` (the constant ``wind`` w [m/s],
-    (east, north), :attr:`~eaplan_drake.resolve.ResolvedScenario.wind`), ``plant``
+    (east, north), :attr:`~eaplan_drake.resolve.ResolvedScenario.wind`, or the changing wind of
+    ``wind_params`` seeded by ``wind_seed``: :func:`AddWindSource`), ``plant``
     (:class:`~eaplan_drake.flight.plant.FixedWingPlant` of ``vehicle``, the kind
     ``simulation.plant`` names, :func:`~eaplan_drake.flight.plant.MakeFixedWingPlant`),
     ``sequencer`` (:class:`~eaplan_drake.flight.sequencer.StageSequencer` over ``plan``, a plan
@@ -196,9 +207,10 @@ def AddGuidedAircraft(
     (the M values of c1 [m²], :attr:`~eaplan_drake.resolve.ResolvedScenario.path_parameter_grid`).
     ``initial_path_parameter`` is the c1 [m²] the sequencer starts with. The sequencer's
     ``path_parameters`` input is left for the caller (a planner), or fed the constant
-    ``path_parameter`` [m²] when given (a flight at one coverage density).
+    ``path_parameter`` [m²] when given (a flight at one coverage density). The wind of the
+    sequencer's ``remaining_time`` is ``wind_params.staircase``'s (:func:`WireWind`).
     """
-    source = builder.AddNamedSystem("wind", ConstantVectorSource(wind))
+    source = AddWindSource(builder, wind, wind_params, vehicle, simulation, wind_seed)
     plant = builder.AddNamedSystem("plant", MakeFixedWingPlant(vehicle, simulation))
     sequencer = builder.AddNamedSystem(
         "sequencer",
@@ -210,6 +222,7 @@ def AddGuidedAircraft(
             wind=wind,
             time_step=simulation.max_step,
             path_parameter_grid=path_parameter_grid,
+            wind_input=wind_params is not None and wind_params.staircase != "scenario",
         ),
     )
     guidance = builder.AddNamedSystem(
@@ -221,8 +234,8 @@ def AddGuidedAircraft(
             wind_speed=math.hypot(*wind),
         ),
     )
+    estimator = WireWind(builder, source, plant, sequencer, wind_params, wind, simulation)
     connect = builder.Connect
-    connect(source.get_output_port(), plant.GetInputPort("wind"))
     # The sequencer reads (x, y) as the first two elements of the plant's kinematics (x, y, ψ,
     # ṗ_x, ṗ_y), split in C++ by a Demultiplexer: the same values as the plant's ``position``
     # output, without its Python calculation at every sequencer update.
@@ -237,7 +250,40 @@ def AddGuidedAircraft(
     if path_parameter is not None:
         c1 = builder.AddNamedSystem("path_parameters", ConstantVectorSource([path_parameter]))
         connect(c1.get_output_port(), sequencer.GetInputPort("path_parameters"))
-    return GuidedAircraft(wind=source, plant=plant, sequencer=sequencer, guidance=guidance)
+    return GuidedAircraft(source, plant, sequencer, guidance, estimator)
+
+
+def WireWind(
+    builder, source, plant, sequencer, wind_params, wind, simulation
+) -> WindEstimator | None:
+    """Connects the true wind of ``source`` (the world's wind,
+    :func:`~eaplan_drake.flight.wind.AddWindSource`) to ``plant`` (and the plant's kinematics to
+    a ``WindSource``) and, as ``wind_params.staircase`` says (``scenario`` when ``wind_params``
+    is None), the wind of the ``sequencer``'s staircase, read at every stage switch: the wind
+    estimate (``estimated``, :func:`~eaplan_drake.flight.wind_estimator.AddWindEstimator` from
+    ŵ(0) = ``wind``, returned), the true mean wind (``truth``) or none (``scenario``: its
+    constant wind)."""
+    connect = builder.Connect
+    if isinstance(source, WindSource):
+        true_wind, mean_wind = source.GetOutputPort("wind"), source.GetOutputPort("mean_wind")
+        connect(plant.GetOutputPort("kinematics"), source.GetInputPort("kinematics"))
+    else:
+        true_wind = mean_wind = source.get_output_port()
+    connect(true_wind, plant.GetInputPort("wind"))
+    staircase = "scenario" if wind_params is None else wind_params.staircase
+    if staircase == "estimated":
+        estimator = AddWindEstimator(
+            builder,
+            plant,
+            params=wind_params.estimator,
+            time_step=simulation.max_step,
+            initial_wind=wind,
+        )
+        connect(estimator.GetOutputPort("wind_estimate"), sequencer.GetInputPort("wind"))
+        return estimator
+    if staircase == "truth":
+        connect(mean_wind, sequencer.GetInputPort("wind"))
+    return None
 
 
 def AddEnergyLoop(
@@ -501,7 +547,8 @@ def MakeEaplanDiagram(
 def GuidedAircraftArguments(scenario: Scenario | ResolvedScenario) -> dict:
     """The keyword arguments of :func:`AddGuidedAircraft` that a scenario fixes: its
     ``vehicle``, ``simulation`` and ``guidance`` subtrees, ``coverage.trigger_radius`` ε [m],
-    ``energy_model.initial_period`` T [s], the wind w [m/s] and the c1 grid [m²] (those of a
+    ``energy_model.initial_period`` T [s], the wind w [m/s], the ``wind`` subtree and its seed
+    (:meth:`~eaplan_drake.params.Scenario.WindSeed`) and the c1 grid [m²] (those of a
     :class:`~eaplan_drake.resolve.ResolvedScenario`, or of a plain scenario computed as
     :func:`~eaplan_drake.resolve.Derive` computes them). The caller adds the plan, the
     ``initial_path_parameter`` and, for a flight at one c1, ``path_parameter``::
@@ -513,6 +560,8 @@ def GuidedAircraftArguments(scenario: Scenario | ResolvedScenario) -> dict:
     else:
         s, wind, grid = scenario, scenario.wind.Vector(), scenario.planner.PathParameterGrid()
     return dict(
+        wind_params=s.wind,
+        wind_seed=s.WindSeed(),
         vehicle=s.vehicle,
         simulation=s.simulation,
         guidance=s.guidance,
