@@ -301,10 +301,12 @@ def AddEnergyLoop(
     initial_coefficients: np.ndarray,
     time_step: float,
     computation_parameters: list[float] | None = None,
+    power_offset: float = 0.0,
 ) -> EnergyLoop:
     """Adds and wires the energy side to ``builder``: ``computation``
-    (:class:`~eaplan_drake.energy.computation.ComputationLoad` over ``table``), ``total_power`` (an
-    ``Adder``: y = motion power + computation power [W]), ``sensor``
+    (:class:`~eaplan_drake.energy.computation.ComputationLoad` over ``table``, drawing
+    ``power_offset`` ΔP [W] off the table; the estimator reads the table's power),
+    ``total_power`` (an ``Adder``: y = motion power + computation power [W]), ``sensor``
     (:class:`~eaplan_drake.energy.sensor.PowerSensor` of ``sensor``, seeded by ``sensor_seed``,
     :attr:`~eaplan_drake.resolve.ResolvedScenario.sensor_seed`), ``estimator``
     (:class:`~eaplan_drake.energy.estimator.EnergyEstimator` with the ``estimator`` parameters)
@@ -312,7 +314,7 @@ def AddEnergyLoop(
 
         motion_power ─► total_power ◄─ computation      period ─► estimator
                           │ y (Adder)
-                          ├─► sensor ─ measured_power ─► estimator ◄─ computation power
+                          ├─► sensor ─ measured_power ─► estimator ◄─ computation table_power
                           └─► battery
 
     The sensor, the estimator and the battery run on the base step ``time_step`` h [s]
@@ -327,7 +329,8 @@ def AddEnergyLoop(
     ``computation_parameters`` input is left for the caller (a planner), or fed the constant
     ``computation_parameters`` (table units) when given.
     """
-    computation = builder.AddNamedSystem("computation", ComputationLoad(table))
+    load = ComputationLoad(table, power_offset=power_offset)
+    computation = builder.AddNamedSystem("computation", load)
     total = builder.AddNamedSystem("total_power", Adder(2, 1))  # y = P_motion + g [W]
     power_sensor = builder.AddNamedSystem(
         "sensor", PowerSensor(dc.replace(sensor, seed=sensor_seed), time_step=time_step)
@@ -343,29 +346,23 @@ def AddEnergyLoop(
         ),
     )
     rint = builder.AddNamedSystem("battery", Battery(battery, time_step=time_step))
-    connect = builder.Connect
-    connect(motion_power, total.get_input_port(0))
-    connect(computation.GetOutputPort("power"), total.get_input_port(1))
-    connect(total.get_output_port(), power_sensor.GetInputPort("power"))
-    connect(computation.GetOutputPort("power"), power_estimator.GetInputPort("computation_power"))
-    connect(
-        power_sensor.GetOutputPort("measured_power"),
-        power_estimator.GetInputPort("measured_power"),
-    )
-    connect(period, power_estimator.GetInputPort("period"))
-    connect(total.get_output_port(), rint.GetInputPort("power"))
+    estimator_in = power_estimator.GetInputPort
+    for source, sink in (
+        (motion_power, total.get_input_port(0)),
+        (computation.GetOutputPort("power"), total.get_input_port(1)),
+        (total.get_output_port(), power_sensor.GetInputPort("power")),
+        (computation.GetOutputPort("table_power"), estimator_in("computation_power")),
+        (power_sensor.GetOutputPort("measured_power"), estimator_in("measured_power")),
+        (period, estimator_in("period")),
+        (total.get_output_port(), rint.GetInputPort("power")),
+    ):
+        builder.Connect(source, sink)
     if computation_parameters is not None:
         c2 = builder.AddNamedSystem(
             "computation_parameters", ConstantVectorSource(list(computation_parameters))
         )
-        connect(c2.get_output_port(), computation.GetInputPort("computation_parameters"))
-    return EnergyLoop(
-        computation=computation,
-        sensor=power_sensor,
-        estimator=power_estimator,
-        battery=rint,
-        total_power=total,
-    )
+        builder.Connect(c2.get_output_port(), computation.GetInputPort("computation_parameters"))
+    return EnergyLoop(computation, power_sensor, power_estimator, rint, total)
 
 
 def AddPlannerScheduler(
@@ -575,10 +572,10 @@ def GuidedAircraftArguments(scenario: Scenario | ResolvedScenario) -> dict:
 def EnergyLoopArguments(resolved: ResolvedScenario, aircraft: GuidedAircraft) -> dict:
     """The keyword arguments of :func:`AddEnergyLoop` that a resolved scenario and the flight
     side ``aircraft`` (:func:`AddGuidedAircraft`) fix: the plant's ``motion_power`` and the
-    sequencer's ``period`` ports, the ``sensor``, ``estimator`` and ``battery`` subtrees, the
-    sensor seed, the model order r, T [s], q(0) [W] and the base step h [s]
-    (``simulation.max_step``). The caller adds the table and, for a flight at constant c2,
-    ``computation_parameters``."""
+    sequencer's ``period`` ports, the ``sensor``, ``estimator`` and ``battery`` subtrees,
+    ``computation.power_offset`` ΔP [W], the sensor seed, the model order r, T [s], q(0) [W] and
+    the base step h [s] (``simulation.max_step``). The caller adds the table and, for a flight
+    at constant c2, ``computation_parameters``."""
     s = resolved.scenario
     return dict(
         motion_power=aircraft.plant.GetOutputPort("motion_power"),
@@ -587,6 +584,7 @@ def EnergyLoopArguments(resolved: ResolvedScenario, aircraft: GuidedAircraft) ->
         sensor_seed=resolved.sensor_seed,
         estimator=s.estimator,
         battery=s.battery,
+        power_offset=s.computation.power_offset,
         order=s.energy_model.order,
         initial_period=s.energy_model.initial_period,
         initial_coefficients=resolved.initial_coefficients,

@@ -197,14 +197,16 @@ def test_the_scenario_switches_choose_the_systems_and_the_staircase_wind(
 
 @pytest.mark.slow
 def test_a_flight_in_a_changing_world_is_a_function_of_its_scenario():
-    """plan i with gusts, a drifting wind and the estimated staircase flies to its end; twice the
-    same scenario gives the same log, bit for bit."""
+    """plan i with gusts, a drifting wind, the estimated staircase, a worn pack and a payload
+    off its table flies to its end; twice the same scenario gives the same log, bit for bit."""
     from eaplan_drake.loading import LoadNamedScenario
     from eaplan_drake.simulation import Simulate
 
     overrides = [
         "wind: {gusts: {sigma: 1.5}, drift: {speed_sigma: 1.0, direction_sigma_deg: 15},"
         " staircase: estimated}",
+        "battery: {health: 0.9}",
+        "computation: {power_offset: 1.5}",
         "random_seed: 4",
     ]
     logs = [Simulate(LoadNamedScenario("plan_i", overrides)) for _ in range(2)]

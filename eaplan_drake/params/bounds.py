@@ -53,3 +53,7 @@ MAX_DRIFT_ANGLE_DEG = 180.0
 wind.drift.direction_sigma_deg [deg]."""
 MIN_WIND_TIME_CONSTANT = 0.01
 """Smallest wind.estimator.time_constant [s]."""
+MAX_POWER_OFFSET = 100.0
+"""Largest \\|computation.power_offset\\| [W]."""
+MIN_BATTERY_HEALTH = 0.1
+"""Smallest battery.health [-]."""
