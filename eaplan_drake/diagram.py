@@ -16,7 +16,8 @@ any :class:`~eaplan_drake.planning.planner.PlannerPolicy` passed as ``policy``; 
 (paper 003
 plans I and II) is the same diagram with ``planner.policy: static``. Every system is named
 (``plant``, ``sequencer``, ``guidance``, ``computation``, ``total_power``, ``sensor``,
-``estimator``, ``battery``, ``planner``, ``wind``, ``kinematics_demux``), the key signals are
+``estimator``, ``battery``, ``planner``, ``wind``, ``kinematics_demux``, and ``wind_estimator``
+with ``wind.staircase: estimated``), the key signals are
 exported as diagram output ports of the same names, and the logged signals (:data:`LOGGED_SIGNALS`)
 go through one ``Multiplexer`` named ``log_mux`` into one ``VectorLogSink`` named ``log``;
 :func:`LoggedSignals` splits its rows by signal and computes the few (:data:`LOG_DERIVED`) that
