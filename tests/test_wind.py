@@ -12,6 +12,7 @@ from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
 from eaplan_drake.flight.wind import (
     BodyToEarth,
+    DriftIncrements,
     DriftStep,
     DrydenFilter,
     DrydenSpectra,
@@ -108,30 +109,34 @@ def test_the_low_altitude_scales_of_mil_hdbk_1797():
 
 
 def test_the_drift_ramps_and_stays_within_its_bounds():
-    drift = WindDriftParams(speed_rate=1.2, direction_rate_deg=-30.0, max_speed=9.0)
+    drift = DriftIncrements(
+        WindDriftParams(speed_rate=1.2, direction_rate_deg=-30.0, max_speed=9.0), 0.01
+    )
     speed, direction = 5.0, 0.0
     for _ in range(6000):  # 60 s at h = 0.01 s
-        speed, direction = DriftStep(speed, direction, (0.0, 0.0), drift, 0.01)
+        speed, direction = DriftStep(speed, direction, (0.0, 0.0), drift)
     assert speed == pytest.approx(6.2, abs=1e-9)
     assert math.degrees(direction) == pytest.approx(-30.0, abs=1e-9)
     for _ in range(30_000):  # another 5 minutes: clipped at the bound
-        speed, direction = DriftStep(speed, direction, (0.0, 0.0), drift, 0.01)
+        speed, direction = DriftStep(speed, direction, (0.0, 0.0), drift)
     assert speed == 9.0
-    down = WindDriftParams(speed_rate=-10.0)
-    assert DriftStep(0.1, 0.0, (0.0, 0.0), down, 1.0)[0] == 0.0
+    down = DriftIncrements(WindDriftParams(speed_rate=-10.0), 1.0)
+    assert DriftStep(0.1, 0.0, (0.0, 0.0), down)[0] == 0.0
 
 
 def test_the_random_walk_spreads_by_its_sigma_per_minute():
     """After one minute of steps the speed's and the direction's spread is σ_s, σ_θ; 4000 walks
     give the sample standard deviation within 5 % (its standard error is 1.1 %)."""
-    drift = WindDriftParams(speed_sigma=0.8, direction_sigma_deg=20.0, max_speed=1e3)
+    drift = DriftIncrements(
+        WindDriftParams(speed_sigma=0.8, direction_sigma_deg=20.0, max_speed=1e3), 1.0
+    )
     rng = np.random.default_rng(5)
     z = rng.standard_normal((4000, 60, 2))
     ends = []
     for walk in z:
         speed, direction = 500.0, 0.0
         for zk in walk:
-            speed, direction = DriftStep(speed, direction, zk, drift, 1.0)
+            speed, direction = DriftStep(speed, direction, zk, drift)
         ends.append((speed - 500.0, math.degrees(direction)))
     np.testing.assert_allclose(np.std(ends, axis=0), [0.8, 20.0], rtol=0.05)
 

@@ -16,6 +16,7 @@ from eaplan_drake.flight.sequencer import StageSequencer, StaircaseWind
 from eaplan_drake.flight.stages import StageTime
 from eaplan_drake.flight.wind import DrydenFilter, GustSeries, WindSource
 from eaplan_drake.flight.wind_estimator import (
+    EstimatorStep,
     WindEstimateStep,
     WindEstimator,
     WindFilterGain,
@@ -127,6 +128,15 @@ def test_the_system_follows_a_drifting_wind_in_a_closed_loop_with_the_plant():
     direction = np.array([math.cos(math.pi / 4), math.sin(math.pi / 4)])
     np.testing.assert_allclose(w_bar - w_hat, lag * direction, rtol=1e-4)
     assert np.hypot(*w_bar) == pytest.approx(2.0 + rate, rel=1e-9)
+
+
+def test_the_estimator_step_is_a_power_of_two_times_the_plants():
+    assert EstimatorStep(0.01) == 0.08
+    assert EstimatorStep(0.005) == 0.08
+    assert EstimatorStep(0.1) == 0.1 and EstimatorStep(0.3) == 0.3
+    h = 0.01
+    step = EstimatorStep(h)
+    assert all(k * step == (8 * k) * h for k in range(1, 200_000, 7))  # the same event times
 
 
 def test_the_staircase_wind_is_capped_below_the_airspeed():

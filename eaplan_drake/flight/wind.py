@@ -57,6 +57,7 @@ __all__ = [
     "AddWindSource",
     "BLOCK_SIZE",
     "BodyToEarth",
+    "DriftIncrements",
     "DriftStep",
     "DrydenFilter",
     "DrydenSpectra",
@@ -218,11 +219,11 @@ def WindDraws(seed: int, block: int) -> np.ndarray:
     return rng.standard_normal((BLOCK_SIZE, 5))
 
 
-def _Draw(seed: int, index: int, memo: dict) -> np.ndarray:
-    """Draw ``index`` (5 values), from the block held in ``memo`` when it is the last one used."""
+def _Draw(seed: int, index: int, memo: dict) -> list:
+    """Draw ``index`` (5 floats), from the block held in ``memo`` when it is the last one used."""
     block, row = divmod(index, BLOCK_SIZE)
     if memo.get("block") != block:
-        memo["block"], memo["draws"] = block, WindDraws(seed, block)
+        memo["block"], memo["draws"] = block, WindDraws(seed, block).tolist()
     return memo["draws"][row]
 
 
@@ -233,23 +234,36 @@ def GustSeries(
     :class:`WindSource` rotates by the heading and adds to the mean wind, for the same seed."""
     f = DrydenFilter(sigma, length_scale, airspeed, step)
     memo: dict = {}
-    x = GustStart(f, _Draw(seed, 0, memo).tolist())
+    x = GustStart(f, _Draw(seed, 0, memo))
     out = np.empty((count, 2))
     for k in range(count):
         out[k] = GustOutput(f, x)
-        x = GustStep(f, x, _Draw(seed, k + 1, memo).tolist())
+        x = GustStep(f, x, _Draw(seed, k + 1, memo))
     return out
 
 
-def DriftStep(speed: float, direction: float, z, drift, step: float) -> tuple[float, float]:
-    """(s_{k+1} [m/s], θ_{k+1} [rad]) of the mean wind from (s_k, θ_k) over one step h [s] with
-    the draws ``z`` = (z, z') (module docstring; ``drift`` a
-    :class:`~eaplan_drake.params.WindDriftParams`)."""
-    minutes = step / 60.0
+def DriftIncrements(drift, step: float) -> tuple[float, float, float, float, float]:
+    """(ṡ h/60 [m/s], σ_s sqrt(h/60) [m/s], θ̇ h/60 [rad], σ_θ sqrt(h/60) [rad], s_max [m/s]) of
+    ``drift`` (a :class:`~eaplan_drake.params.WindDriftParams`) over one step h [s]: the
+    coefficients :func:`DriftStep` reads."""
+    minutes = float(step) / 60.0
     root = math.sqrt(minutes)
-    s = speed + drift.speed_rate * minutes + drift.speed_sigma * root * z[0]
-    d = math.radians(drift.direction_rate_deg * minutes + drift.direction_sigma_deg * root * z[1])
-    return min(max(s, 0.0), float(drift.max_speed)), direction + d
+    return (
+        drift.speed_rate * minutes,
+        drift.speed_sigma * root,
+        math.radians(drift.direction_rate_deg) * minutes,
+        math.radians(drift.direction_sigma_deg) * root,
+        float(drift.max_speed),
+    )
+
+
+def DriftStep(speed: float, direction: float, z, increments) -> tuple[float, float]:
+    """(s_{k+1} [m/s], θ_{k+1} [rad]) of the mean wind from (s_k, θ_k) over one step with the
+    draws ``z`` = (z, z') and the ``increments`` of :func:`DriftIncrements` (module docstring:
+    s + ṡ h/60 + σ_s sqrt(h/60) z clipped into [0, s_max], θ + θ̇ h/60 + σ_θ sqrt(h/60) z')."""
+    ramp, sigma, turn, sigma_turn, top = increments
+    s = speed + ramp + sigma * z[0]
+    return min(max(s, 0.0), top), direction + turn + sigma_turn * z[1]
 
 
 class WindSource(LeafSystem):
@@ -293,7 +307,7 @@ class WindSource(LeafSystem):
         if not (math.isfinite(h) and h > 0.0):
             raise ValueError(f"WindSource: time_step must be > 0 s, got {time_step!r}")
         self._h, self._seed, self._memo = h, int(seed), {}
-        self._drift = dc.replace(wind.drift) if wind.drift.on else None
+        self._drift = DriftIncrements(wind.drift, h) if wind.drift.on else None
         gusts = wind.gusts
         self._filter = (
             DrydenFilter(gusts.sigma, gusts.length_scale, airspeed, h) if gusts.on else None
@@ -301,7 +315,7 @@ class WindSource(LeafSystem):
         speed, direction = float(wind.speed), math.radians(wind.direction_deg)
         x = (0.0, 0.0, 0.0)
         if self._filter is not None:
-            x = GustStart(self._filter, _Draw(self._seed, 0, self._memo).tolist())
+            x = GustStart(self._filter, _Draw(self._seed, 0, self._memo))
         internal = np.array([speed, direction, *x])
         mean, total = self._Wind(internal.tolist(), float(initial_heading))
         self._wind_index = self.DeclareDiscreteState(total)
@@ -322,21 +336,25 @@ class WindSource(LeafSystem):
         return mean, [mean[0] + gx, mean[1] + gy]
 
     def _Update(self, context, discrete_state):
+        # Drake fills discrete_state with the context's values before this handler: the groups
+        # are read and written in place (Python floats in between: no numpy call per element).
         state = discrete_state.get_mutable_value(self._internal_index)
-        internal = state.tolist()
-        z = _Draw(self._seed, round(context.get_time() / self._h) + 1, self._memo).tolist()
+        speed, direction, xu, x1, x2 = state.tolist()
+        z = _Draw(self._seed, round(context.get_time() / self._h) + 1, self._memo)
         if self._drift is not None:
-            internal[0], internal[1] = DriftStep(
-                internal[0], internal[1], z[3:], self._drift, self._h
-            )
-        heading = 0.0
+            speed, direction = DriftStep(speed, direction, (z[3], z[4]), self._drift)
+        mx, my = speed * math.cos(direction), speed * math.sin(direction)
+        wx, wy = mx, my
         if self._filter is not None:
-            internal[2:] = GustStep(self._filter, internal[2:], z)
+            xu, x1, x2 = GustStep(self._filter, (xu, x1, x2), z)
             heading = self._kinematics_port.Eval(context).item(2)
-        state[:] = internal
-        mean, total = self._Wind(internal, heading)
-        discrete_state.set_value(self._mean_index, mean)
-        discrete_state.set_value(self._wind_index, total)
+            gx, gy = BodyToEarth(*GustOutput(self._filter, (xu, x1, x2)), heading)
+            wx, wy = mx + gx, my + gy
+        state[:] = (speed, direction, xu, x1, x2)
+        mean = discrete_state.get_mutable_value(self._mean_index)
+        mean[0], mean[1] = mx, my
+        wind = discrete_state.get_mutable_value(self._wind_index)
+        wind[0], wind[1] = wx, wy
 
 
 def AddWindSource(

@@ -6,8 +6,8 @@ data, the airspeed v_a [m/s] and the heading ψ [rad], and the wind is the diffe
     m_k = ṗ(t_k) − v_a [cos ψ(t_k), sin ψ(t_k)]   [m/s],
 
 which holds the gusts as well as the mean wind. The estimate is its first-order low-pass with the
-time constant τ [s] (``wind.estimator.time_constant``), stepped every h [s] (the plant's step) and
-exact for a measurement held over the step:
+time constant τ [s] (``wind.estimator.time_constant``), stepped every h [s] and exact for a
+measurement held over the step:
 
     ŵ_{k+1} = ŵ_k + α (m_k − ŵ_k),   α = 1 − e^{−h/τ}.
 
@@ -16,6 +16,10 @@ ramping at r [m/s²] is followed with the steady lag e∞ = r h / α (≈ r (τ 
 through it attenuated by the low-pass (the error's variance is the stationary solution of the
 joint linear system of the Dryden states and ŵ; tests/test_wind_estimator.py checks all three).
 ŵ(0) is the scenario's wind (``wind.speed``, ``wind.direction_deg``), the forecast at take-off.
+In a flight (:func:`AddWindEstimator`) h is :func:`EstimatorStep` of the plant's step: 0.08 s
+at the default 0.01 s, a power of two times the plant's step so that its update times are the
+plant's, bit for bit (a Python update at every plant step would cost ≈ 10 % of a static
+flight's CPU for a filter of τ = 10 s).
 The air data here is exact (no sensor noise).
 
 :class:`WindEstimator` is the system; :func:`AddWindEstimator` adds it to a
@@ -32,11 +36,30 @@ from eaplan_drake.params import WindEstimatorParams
 
 __all__ = [
     "AddWindEstimator",
+    "EstimatorStep",
+    "MAX_ESTIMATOR_STEP",
     "WindEstimateStep",
     "WindEstimator",
     "WindFilterGain",
     "WindMeasurement",
 ]
+
+
+MAX_ESTIMATOR_STEP = 0.1
+"""The longest step of the wind estimate in a flight [s] (:func:`EstimatorStep`)."""
+
+
+def EstimatorStep(base_step: float) -> float:
+    """h·2^n [s], n ≥ 0 the largest with h·2^n <= :data:`MAX_ESTIMATOR_STEP` (h itself when it
+    is longer), for the plant's step h [s]: k·(h·2^n) is then (k·2^n)·h to the bit (scaling by
+    a power of two is exact), so the estimate updates at the plant's update times."""
+    h = float(base_step)
+    if not (math.isfinite(h) and h > 0.0):
+        raise ValueError(f"EstimatorStep: base_step must be > 0 s, got {base_step!r}")
+    step = h
+    while 2.0 * step <= MAX_ESTIMATOR_STEP:
+        step *= 2.0
+    return step
 
 
 def WindMeasurement(ground_velocity, heading: float, airspeed: float) -> tuple[float, float]:
@@ -70,7 +93,8 @@ class WindEstimator(LeafSystem):
     Args:
         airspeed: v_a [m/s], > 0.
         time_constant: τ [s], > 0.
-        time_step: h [s], > 0 (the plant's step).
+        time_step: h [s], > 0 (a power-of-two multiple of the plant's step,
+            :func:`EstimatorStep`).
         initial_wind: ŵ(0) [m/s] (east, north).
 
     Input ``kinematics`` (x, y, ψ, ṗ_x, ṗ_y) [m, m, rad, m/s, m/s] (the plant's); output
@@ -124,7 +148,9 @@ def AddWindEstimator(
 ) -> WindEstimator:
     """Adds the aircraft's wind estimate ``wind_estimator``
     (:class:`~eaplan_drake.flight.wind_estimator.WindEstimator`, time constant
-    ``params.time_constant`` [s], stepped every ``time_step`` h [s], from ``initial_wind``
+    ``params.time_constant`` [s], stepped every
+    :func:`~eaplan_drake.flight.wind_estimator.EstimatorStep` of the plant's step
+    ``time_step`` [s], from ``initial_wind``
     ŵ(0) [m/s]) reading the ``kinematics`` of ``plant`` (its ground velocity and heading, with
     the plant's airspeed as the air data); its ``wind_estimate`` output is left for the caller."""
     estimator = builder.AddNamedSystem(
@@ -132,7 +158,7 @@ def AddWindEstimator(
         WindEstimator(
             airspeed=plant.airspeed(),
             time_constant=params.time_constant,
-            time_step=time_step,
+            time_step=EstimatorStep(time_step),
             initial_wind=initial_wind,
         ),
     )
