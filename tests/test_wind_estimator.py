@@ -223,3 +223,19 @@ def test_a_flight_in_a_changing_world_is_a_function_of_its_scenario():
     assert logs[0].summary["status"] in ("complete", "reserve_reached")
     for name, signal in logs[0].signals.items():
         np.testing.assert_array_equal(signal, logs[1].signals[name], err_msg=name)
+
+
+@pytest.mark.slow
+def test_in_a_constant_wind_the_estimated_and_true_staircases_fly_the_scenarios_flight():
+    """The shipped survey (the default mpc policy reads the staircase) in its constant 5 m/s
+    wind: the estimate starts at the scenario's wind and measures it, so pricing the staircase
+    in it, or in the true mean wind, makes the same decisions and ends at the same SoC."""
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.simulation import Simulate
+
+    base = Simulate(LoadNamedScenario("survey"))
+    for staircase in ("estimated", "truth"):
+        log = Simulate(LoadNamedScenario("survey", [f"wind: {{staircase: {staircase}}}"]))
+        for name in ("path_parameters", "computation_parameters"):
+            np.testing.assert_allclose(log.signals[name], base.signals[name], atol=1e-9)
+        assert log.summary["final_soc"] == pytest.approx(base.summary["final_soc"], abs=1e-9)
