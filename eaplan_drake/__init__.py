@@ -43,6 +43,7 @@ _PUBLIC = {
     "AddEnergyLoop": "diagram",
     "AddPlannerScheduler": "diagram",
     "AddSignalLoggers": "diagram",
+    "AddWindEstimator": "flight.wind_estimator",
     # the policy interface
     "PlannerPolicy": "planning.planner",
     "PlannerObservation": "planning.planner",
@@ -58,6 +59,8 @@ _PUBLIC = {
     "FixedWingPlant": "flight.plant",
     "FixedWingArcPlant": "flight.plant",
     "VectorFieldGuidance": "flight.guidance",
+    "WindSource": "flight.wind",
+    "WindEstimator": "flight.wind_estimator",
     "StageSequencer": "flight.sequencer",
     "PlannerScheduler": "planning.planner",
     # output, studies, logs

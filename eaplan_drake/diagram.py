@@ -16,7 +16,8 @@ any :class:`~eaplan_drake.planning.planner.PlannerPolicy` passed as ``policy``; 
 (paper 003
 plans I and II) is the same diagram with ``planner.policy: static``. Every system is named
 (``plant``, ``sequencer``, ``guidance``, ``computation``, ``total_power``, ``sensor``,
-``estimator``, ``battery``, ``planner``, ``wind``, ``kinematics_demux``), the key signals are
+``estimator``, ``battery``, ``planner``, ``wind``, ``kinematics_demux``, and ``wind_estimator``
+with ``wind.staircase: estimated``), the key signals are
 exported as diagram output ports of the same names, and the logged signals (:data:`LOGGED_SIGNALS`)
 go through one ``Multiplexer`` named ``log_mux`` into one ``VectorLogSink`` named ``log``;
 :func:`LoggedSignals` splits its rows by signal and computes the few (:data:`LOG_DERIVED`) that
@@ -43,6 +44,8 @@ from eaplan_drake.energy.sensor import AveragedVariance, PowerSensor
 from eaplan_drake.flight.guidance import VectorFieldGuidance
 from eaplan_drake.flight.plant import FixedWingPlant, MakeFixedWingPlant, MaxHeadingRate
 from eaplan_drake.flight.sequencer import StageSequencer
+from eaplan_drake.flight.wind import AddWindSource, WindSource
+from eaplan_drake.flight.wind_estimator import AddWindEstimator, WindEstimator
 from eaplan_drake.params import (
     BatteryParams,
     EstimatorParams,
@@ -52,6 +55,7 @@ from eaplan_drake.params import (
     SensorParams,
     SimulationParams,
     VehicleParams,
+    WindParams,
 )
 from eaplan_drake.planning.planner import PlannerPolicy, PlannerScheduler
 from eaplan_drake.planning.policies import MakePolicy
@@ -65,6 +69,9 @@ __all__ = [
     "AddGuidedAircraft",
     "AddPlannerScheduler",
     "AddSignalLoggers",
+    "AddWindEstimator",
+    "AddWindSource",
+    "WireWind",
     "EnergyLoop",
     "EnergyLoopArguments",
     "EstimatorOfSensor",
@@ -145,10 +152,12 @@ class GuidedAircraft:
     """The flight side added by :func:`AddGuidedAircraft`: the systems, and the sequencer's
     ``path_parameters`` input (c1 [m²]) that a planner or a constant drives."""
 
-    wind: ConstantVectorSource
+    wind: ConstantVectorSource | WindSource
     plant: FixedWingPlant
     sequencer: StageSequencer
     guidance: VectorFieldGuidance
+    wind_estimator: WindEstimator | None = None
+    """The aircraft's wind estimate (with ``wind.staircase: estimated``), else None."""
 
 
 @dc.dataclass(frozen=True)
@@ -177,9 +186,12 @@ def AddGuidedAircraft(
     path_parameter_grid: np.ndarray,
     initial_path_parameter: float,
     path_parameter: float | None = None,
+    wind_params: WindParams | None = None,
+    wind_seed: int = 0,
 ) -> GuidedAircraft:
     """Adds and wires the flight side to ``builder``: ``wind`` (the constant ``wind`` w [m/s],
-    (east, north), :attr:`~eaplan_drake.resolve.ResolvedScenario.wind`), ``plant``
+    (east, north), :attr:`~eaplan_drake.resolve.ResolvedScenario.wind`, or the changing wind of
+    ``wind_params`` seeded by ``wind_seed``: :func:`AddWindSource`), ``plant``
     (:class:`~eaplan_drake.flight.plant.FixedWingPlant` of ``vehicle``, the kind
     ``simulation.plant`` names, :func:`~eaplan_drake.flight.plant.MakeFixedWingPlant`),
     ``sequencer`` (:class:`~eaplan_drake.flight.sequencer.StageSequencer` over ``plan``, a plan
@@ -196,9 +208,10 @@ def AddGuidedAircraft(
     (the M values of c1 [m²], :attr:`~eaplan_drake.resolve.ResolvedScenario.path_parameter_grid`).
     ``initial_path_parameter`` is the c1 [m²] the sequencer starts with. The sequencer's
     ``path_parameters`` input is left for the caller (a planner), or fed the constant
-    ``path_parameter`` [m²] when given (a flight at one coverage density).
+    ``path_parameter`` [m²] when given (a flight at one coverage density). The wind of the
+    sequencer's ``remaining_time`` is ``wind_params.staircase``'s (:func:`WireWind`).
     """
-    source = builder.AddNamedSystem("wind", ConstantVectorSource(wind))
+    source = AddWindSource(builder, wind, wind_params, vehicle, simulation, wind_seed)
     plant = builder.AddNamedSystem("plant", MakeFixedWingPlant(vehicle, simulation))
     sequencer = builder.AddNamedSystem(
         "sequencer",
@@ -210,6 +223,7 @@ def AddGuidedAircraft(
             wind=wind,
             time_step=simulation.max_step,
             path_parameter_grid=path_parameter_grid,
+            wind_input=wind_params is not None and wind_params.staircase != "scenario",
         ),
     )
     guidance = builder.AddNamedSystem(
@@ -221,8 +235,8 @@ def AddGuidedAircraft(
             wind_speed=math.hypot(*wind),
         ),
     )
+    estimator = WireWind(builder, source, plant, sequencer, wind_params, wind, simulation)
     connect = builder.Connect
-    connect(source.get_output_port(), plant.GetInputPort("wind"))
     # The sequencer reads (x, y) as the first two elements of the plant's kinematics (x, y, ψ,
     # ṗ_x, ṗ_y), split in C++ by a Demultiplexer: the same values as the plant's ``position``
     # output, without its Python calculation at every sequencer update.
@@ -237,7 +251,40 @@ def AddGuidedAircraft(
     if path_parameter is not None:
         c1 = builder.AddNamedSystem("path_parameters", ConstantVectorSource([path_parameter]))
         connect(c1.get_output_port(), sequencer.GetInputPort("path_parameters"))
-    return GuidedAircraft(wind=source, plant=plant, sequencer=sequencer, guidance=guidance)
+    return GuidedAircraft(source, plant, sequencer, guidance, estimator)
+
+
+def WireWind(
+    builder, source, plant, sequencer, wind_params, wind, simulation
+) -> WindEstimator | None:
+    """Connects the true wind of ``source`` (the world's wind,
+    :func:`~eaplan_drake.flight.wind.AddWindSource`) to ``plant`` (and the plant's kinematics to
+    a ``WindSource``) and, as ``wind_params.staircase`` says (``scenario`` when ``wind_params``
+    is None), the wind of the ``sequencer``'s staircase, read at every stage switch: the wind
+    estimate (``estimated``, :func:`~eaplan_drake.flight.wind_estimator.AddWindEstimator` from
+    ŵ(0) = ``wind``, returned), the true mean wind (``truth``) or none (``scenario``: its
+    constant wind)."""
+    connect = builder.Connect
+    if isinstance(source, WindSource):
+        true_wind, mean_wind = source.GetOutputPort("wind"), source.GetOutputPort("mean_wind")
+        connect(plant.GetOutputPort("kinematics"), source.GetInputPort("kinematics"))
+    else:
+        true_wind = mean_wind = source.get_output_port()
+    connect(true_wind, plant.GetInputPort("wind"))
+    staircase = "scenario" if wind_params is None else wind_params.staircase
+    if staircase == "estimated":
+        estimator = AddWindEstimator(
+            builder,
+            plant,
+            params=wind_params.estimator,
+            time_step=simulation.max_step,
+            initial_wind=wind,
+        )
+        connect(estimator.GetOutputPort("wind_estimate"), sequencer.GetInputPort("wind"))
+        return estimator
+    if staircase == "truth":
+        connect(mean_wind, sequencer.GetInputPort("wind"))
+    return None
 
 
 def AddEnergyLoop(
@@ -255,10 +302,12 @@ def AddEnergyLoop(
     initial_coefficients: np.ndarray,
     time_step: float,
     computation_parameters: list[float] | None = None,
+    power_offset: float = 0.0,
 ) -> EnergyLoop:
     """Adds and wires the energy side to ``builder``: ``computation``
-    (:class:`~eaplan_drake.energy.computation.ComputationLoad` over ``table``), ``total_power`` (an
-    ``Adder``: y = motion power + computation power [W]), ``sensor``
+    (:class:`~eaplan_drake.energy.computation.ComputationLoad` over ``table``, drawing
+    ``power_offset`` ΔP [W] off the table; the estimator reads the table's power),
+    ``total_power`` (an ``Adder``: y = motion power + computation power [W]), ``sensor``
     (:class:`~eaplan_drake.energy.sensor.PowerSensor` of ``sensor``, seeded by ``sensor_seed``,
     :attr:`~eaplan_drake.resolve.ResolvedScenario.sensor_seed`), ``estimator``
     (:class:`~eaplan_drake.energy.estimator.EnergyEstimator` with the ``estimator`` parameters)
@@ -266,7 +315,7 @@ def AddEnergyLoop(
 
         motion_power ─► total_power ◄─ computation      period ─► estimator
                           │ y (Adder)
-                          ├─► sensor ─ measured_power ─► estimator ◄─ computation power
+                          ├─► sensor ─ measured_power ─► estimator ◄─ computation table_power
                           └─► battery
 
     The sensor, the estimator and the battery run on the base step ``time_step`` h [s]
@@ -281,7 +330,8 @@ def AddEnergyLoop(
     ``computation_parameters`` input is left for the caller (a planner), or fed the constant
     ``computation_parameters`` (table units) when given.
     """
-    computation = builder.AddNamedSystem("computation", ComputationLoad(table))
+    load = ComputationLoad(table, power_offset=power_offset)
+    computation = builder.AddNamedSystem("computation", load)
     total = builder.AddNamedSystem("total_power", Adder(2, 1))  # y = P_motion + g [W]
     power_sensor = builder.AddNamedSystem(
         "sensor", PowerSensor(dc.replace(sensor, seed=sensor_seed), time_step=time_step)
@@ -297,29 +347,23 @@ def AddEnergyLoop(
         ),
     )
     rint = builder.AddNamedSystem("battery", Battery(battery, time_step=time_step))
-    connect = builder.Connect
-    connect(motion_power, total.get_input_port(0))
-    connect(computation.GetOutputPort("power"), total.get_input_port(1))
-    connect(total.get_output_port(), power_sensor.GetInputPort("power"))
-    connect(computation.GetOutputPort("power"), power_estimator.GetInputPort("computation_power"))
-    connect(
-        power_sensor.GetOutputPort("measured_power"),
-        power_estimator.GetInputPort("measured_power"),
-    )
-    connect(period, power_estimator.GetInputPort("period"))
-    connect(total.get_output_port(), rint.GetInputPort("power"))
+    estimator_in = power_estimator.GetInputPort
+    for source, sink in (
+        (motion_power, total.get_input_port(0)),
+        (computation.GetOutputPort("power"), total.get_input_port(1)),
+        (total.get_output_port(), power_sensor.GetInputPort("power")),
+        (computation.GetOutputPort("table_power"), estimator_in("computation_power")),
+        (power_sensor.GetOutputPort("measured_power"), estimator_in("measured_power")),
+        (period, estimator_in("period")),
+        (total.get_output_port(), rint.GetInputPort("power")),
+    ):
+        builder.Connect(source, sink)
     if computation_parameters is not None:
         c2 = builder.AddNamedSystem(
             "computation_parameters", ConstantVectorSource(list(computation_parameters))
         )
-        connect(c2.get_output_port(), computation.GetInputPort("computation_parameters"))
-    return EnergyLoop(
-        computation=computation,
-        sensor=power_sensor,
-        estimator=power_estimator,
-        battery=rint,
-        total_power=total,
-    )
+        builder.Connect(c2.get_output_port(), computation.GetInputPort("computation_parameters"))
+    return EnergyLoop(computation, power_sensor, power_estimator, rint, total)
 
 
 def AddPlannerScheduler(
@@ -501,7 +545,8 @@ def MakeEaplanDiagram(
 def GuidedAircraftArguments(scenario: Scenario | ResolvedScenario) -> dict:
     """The keyword arguments of :func:`AddGuidedAircraft` that a scenario fixes: its
     ``vehicle``, ``simulation`` and ``guidance`` subtrees, ``coverage.trigger_radius`` ε [m],
-    ``energy_model.initial_period`` T [s], the wind w [m/s] and the c1 grid [m²] (those of a
+    ``energy_model.initial_period`` T [s], the wind w [m/s], the ``wind`` subtree and its seed
+    (:meth:`~eaplan_drake.params.Scenario.WindSeed`) and the c1 grid [m²] (those of a
     :class:`~eaplan_drake.resolve.ResolvedScenario`, or of a plain scenario computed as
     :func:`~eaplan_drake.resolve.Derive` computes them). The caller adds the plan, the
     ``initial_path_parameter`` and, for a flight at one c1, ``path_parameter``::
@@ -513,6 +558,8 @@ def GuidedAircraftArguments(scenario: Scenario | ResolvedScenario) -> dict:
     else:
         s, wind, grid = scenario, scenario.wind.Vector(), scenario.planner.PathParameterGrid()
     return dict(
+        wind_params=s.wind,
+        wind_seed=s.WindSeed(),
         vehicle=s.vehicle,
         simulation=s.simulation,
         guidance=s.guidance,
@@ -526,10 +573,10 @@ def GuidedAircraftArguments(scenario: Scenario | ResolvedScenario) -> dict:
 def EnergyLoopArguments(resolved: ResolvedScenario, aircraft: GuidedAircraft) -> dict:
     """The keyword arguments of :func:`AddEnergyLoop` that a resolved scenario and the flight
     side ``aircraft`` (:func:`AddGuidedAircraft`) fix: the plant's ``motion_power`` and the
-    sequencer's ``period`` ports, the ``sensor``, ``estimator`` and ``battery`` subtrees, the
-    sensor seed, the model order r, T [s], q(0) [W] and the base step h [s]
-    (``simulation.max_step``). The caller adds the table and, for a flight at constant c2,
-    ``computation_parameters``."""
+    sequencer's ``period`` ports, the ``sensor``, ``estimator`` and ``battery`` subtrees,
+    ``computation.power_offset`` ΔP [W], the sensor seed, the model order r, T [s], q(0) [W] and
+    the base step h [s] (``simulation.max_step``). The caller adds the table and, for a flight
+    at constant c2, ``computation_parameters``."""
     s = resolved.scenario
     return dict(
         motion_power=aircraft.plant.GetOutputPort("motion_power"),
@@ -538,6 +585,7 @@ def EnergyLoopArguments(resolved: ResolvedScenario, aircraft: GuidedAircraft) ->
         sensor_seed=resolved.sensor_seed,
         estimator=s.estimator,
         battery=s.battery,
+        power_offset=s.computation.power_offset,
         order=s.energy_model.order,
         initial_period=s.energy_model.initial_period,
         initial_coefficients=resolved.initial_coefficients,

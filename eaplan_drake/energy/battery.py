@@ -19,12 +19,18 @@ root becomes imaginary). A larger load is a brown-out, never a NaN: the function
 current at the maximum power, I = V / (2 R_r), and :func:`IsBrownout` / the ``brownout`` output of
 :class:`Battery` say so.
 
+Health (``battery.health``, 1 by default). A pack delivers a fraction h ∈ [0.1, 1] of its
+nominal capacity (age, temperature): the :class:`Battery` system discharges the capacity h·Q_c
+(:func:`UsablePack`), so its SoC, the fraction of what the pack holds, falls 1/h times as fast
+under the same load; the planner's prediction keeps the nominal Q_c.
+
 Power budget (Def. III.3, "output constraint" y ≤ b Q_c V). The papers call b·Q_c·V a power [W];
 dimensionally Q_c·V is an energy (Ah·V = Wh). We keep the papers' number and name it the power
 budget: "the power budget at full charge (Q_c·V, read as watts) times b".
 """
 
 import copy
+import dataclasses as dc
 import math
 
 import numpy as np
@@ -48,6 +54,7 @@ __all__ = [
     "SocDerivativeSlope",
     "RintBatteryModel",
     "TimeToSoc",
+    "UsablePack",
 ]
 
 
@@ -188,6 +195,14 @@ class RintBatteryModel(BatteryModel):
         return PowerBudget(soc, self.params)
 
 
+def UsablePack(params: BatteryParams) -> BatteryParams:
+    """The pack as it is: ``params`` with the capacity health · Q_c [Ah] (and health 1);
+    ``params`` itself when its health is 1."""
+    if params.health == 1.0:
+        return params
+    return dc.replace(params, capacity=params.capacity * params.health, health=1.0)
+
+
 # -- Drake system -------------------------------------------------------------------------------
 
 
@@ -214,6 +229,9 @@ class Battery(LeafSystem):
     at t_k ≥ τ (1e-9 s tolerance for the floating-point event times); Δb is an absolute drop
     (0.06 = −6 % of full charge). The very first update (t = 0) only samples the load and applies
     faults with τ ≤ 0. The SoC never goes below 0.
+
+    Health: the system steps the usable pack (:func:`UsablePack`, capacity health · Q_c); its
+    ``params`` are the nominal ones, its ``model`` the usable pack's.
 
     Termination: the update at t_k ends the simulation (it returns
     ``EventStatus.ReachedTermination(self, message)``, its state update still applied) with the
@@ -250,7 +268,7 @@ class Battery(LeafSystem):
         if not (math.isfinite(h) and h > 0.0):
             raise ValueError(f"time_step: must be a finite number > 0 [s], got {time_step!r}")
         self._params = copy.deepcopy(params)
-        self._model = AsBatteryModel(self._params)
+        self._model = AsBatteryModel(UsablePack(self._params))
         self._time_step = h
         self._faults = sorted(self._params.faults, key=lambda f: f.time)
         self._fault_times = [float(f.time) - 1e-9 for f in self._faults]
@@ -288,7 +306,7 @@ class Battery(LeafSystem):
 
     @property
     def model(self) -> BatteryModel:
-        """The battery model it steps (``params.model``)."""
+        """The battery model it steps (``params.model`` of the usable pack)."""
         return self._model
 
     # -- hot path ------------------------------------------------------------------------------

@@ -341,11 +341,15 @@ def LoadComputationTable(name_or_path: str | Path) -> ComputationTable:
 
 
 class ComputationLoad(LeafSystem):
-    """Computation power y_c = g(c) [W] of the onboard computing hardware (paper 003 Sec. III-B).
+    """Computation power y_c = g(c) + ΔP [W] of the onboard computing hardware (paper 003
+    Sec. III-B).
 
     g is the piecewise-(multi)linear interpolation of a measured powprofiler table
-    (:class:`ComputationTable`); parameters outside the table are clamped to its range.
-    Direct feedthrough, no state.
+    (:class:`ComputationTable`); parameters outside the table are clamped to its range. ΔP
+    [W] (``power_offset``, ``computation.power_offset``; 0 by default) is how far the payload
+    draws off the table: ``power`` is what it draws, y_c = g(c) + ΔP (the plant's true load),
+    ``table_power`` what the table says, g(c) (what the estimator and the planner know). With
+    ΔP = 0 the two are the same number. Direct feedthrough, no state.
 
     .. pydrake_system::
 
@@ -354,15 +358,22 @@ class ComputationLoad(LeafSystem):
         - computation_parameters
         output_ports:
         - power
+        - table_power
     """
 
-    def __init__(self, table: ComputationTable):
+    def __init__(self, table: ComputationTable, *, power_offset: float = 0.0):
         super().__init__()
         if not isinstance(table, ComputationTable):
             raise ValueError(
                 f"ComputationLoad: table must be a ComputationTable, got {type(table).__name__}"
             )
+        offset = float(power_offset) if isinstance(power_offset, int | float) else math.nan
+        if not math.isfinite(offset):
+            raise ValueError(
+                f"ComputationLoad: power_offset must be finite [W], got {power_offset!r}"
+            )
         self._table = table
+        self._offset = offset
         self._parameters_port = self.DeclareVectorInputPort(
             "computation_parameters", table.num_parameters
         )
@@ -374,13 +385,31 @@ class ComputationLoad(LeafSystem):
             self._CalcPower,
             prerequisites_of_calc={self._parameters_port.ticket()},
         )
+        self._table_power_port = self.DeclareVectorOutputPort(
+            "table_power",
+            1,
+            self._CalcTablePower,
+            prerequisites_of_calc={self._parameters_port.ticket()},
+        )
 
     @property
     def table(self) -> ComputationTable:
         return self._table
 
-    def _CalcPower(self, context: Context, output: BasicVector) -> None:
+    @property
+    def power_offset(self) -> float:
+        """ΔP [W]."""
+        return self._offset
+
+    def _TablePower(self, context: Context) -> float:
         c = self._parameters_port.Eval(context)
         if not np.all(np.isfinite(c)):
             raise ValueError(f"ComputationLoad: computation_parameters not finite: {c}")
-        output.SetAtIndex(0, self._table.power(c))
+        return self._table.power(c)
+
+    def _CalcPower(self, context: Context, output: BasicVector) -> None:
+        g = self._TablePower(context)
+        output.SetAtIndex(0, g + self._offset if self._offset != 0.0 else g)
+
+    def _CalcTablePower(self, context: Context, output: BasicVector) -> None:
+        output.SetAtIndex(0, self._TablePower(context))

@@ -18,8 +18,11 @@ range; NaN ignored) re-plans the stages after the active one (the active line or
 ``remaining_time`` [s] is the exact nominal time still to fly until the mission completes if the
 rest of the plan is flown with c1, for each c1 of a grid c1_1 < … < c1_M: the time left on the
 active stage (its share of the stage's time) plus the times of the stages that would follow,
-generated with that c1, at the airspeed in the (constant, known) wind. It is the plan's staircase
-t(c1) from here (whole repetitions), not the Eq. 10 line; the mpc planner decides on it.
+generated with that c1, at the airspeed in a constant wind: the scenario's (known), or, with a
+``wind`` input (``wind_input``), the wind that input gave at the last stage switch (an estimate,
+or the true mean wind), held in the ``priced_wind`` state and capped at
+:data:`STAIRCASE_WIND_FRACTION` of the airspeed. It is the plan's staircase t(c1) from here
+(whole repetitions), not the Eq. 10 line; the mpc planner decides on it.
 ``coverage_remaining`` is the planner's fraction [0, 1] of the survey still to fly: the rest of the
 current stage plus the survey length of the remaining stages *as if flown at the reference c1 = c̄1*
 (the finest coverage), over the survey length of the whole plan at c̄1. It does not jump when c1 is
@@ -82,13 +85,25 @@ from eaplan_drake.flight.stages import (
 )
 from eaplan_drake.ticks import DeclareTickedDiscreteUpdateEvent
 
-__all__ = ["SequencerMode", "StageSequencer", "StageSource", "Triggered", "UPDATE_PERIOD"]
+__all__ = [
+    "STAIRCASE_WIND_FRACTION",
+    "SequencerMode",
+    "StageSequencer",
+    "StageSource",
+    "StaircaseWind",
+    "Triggered",
+    "UPDATE_PERIOD",
+]
 
 _SUCCEEDED = EventStatus.Succeeded()
 """The status of an update that did its work (one object, not one per call)."""
 
 UPDATE_PERIOD = 0.05
 """Default period of the sequencer's trigger test [s] (the authors' simulator's)."""
+
+STAIRCASE_WIND_FRACTION = 0.9
+"""The largest wind a ``wind`` input prices the staircase in, as a fraction of the airspeed [-]
+(a gust may briefly reach the airspeed, where no stage time exists)."""
 
 SequencerMode = namedview("SequencerMode", ["stage", "c1", "remaining", "stage_left", "survey"])
 """The sequencer's ``mode`` state: active stage index, c1 [m²], remaining survey fraction at the
@@ -119,6 +134,19 @@ def Triggered(stage: Stage, position, epsilon: float) -> bool:
     return True
 
 
+def StaircaseWind(wind, airspeed: float) -> tuple[float, float]:
+    """The wind w [m/s] the staircase is priced in: ``wind`` scaled down to at most
+    :data:`STAIRCASE_WIND_FRACTION` · v_a when it is faster; (0, 0) when it is not finite."""
+    wx, wy = float(wind[0]), float(wind[1])
+    speed = math.hypot(wx, wy)
+    if not math.isfinite(speed):
+        return 0.0, 0.0
+    top = STAIRCASE_WIND_FRACTION * float(airspeed)
+    if speed <= top:
+        return wx, wy
+    return wx * top / speed, wy * top / speed
+
+
 class StageSequencer(LeafSystem):
     """Runs a plan: switches stages at the triggering points, re-plans on c1 changes, measures the
     period (paper 003 Def. II.1–II.5; see the module docstring for the equations).
@@ -130,13 +158,17 @@ class StageSequencer(LeafSystem):
         trigger_radius: ε [m], ≥ 0 (``CoverageParams.trigger_radius``).
         initial_period: first guess of the period T [s], > 0
             (``EnergyModelParams.initial_period``).
-        wind: constant wind w [m/s] of the ``remaining_time`` output.
+        wind: constant wind w [m/s] of the ``remaining_time`` output (with ``wind_input``, until
+            the first stage switch).
         update_period: period of the trigger test [s], > 0.
         time_step: the diagram's base period [s] at which the event is declared (None: the
             update period); see the module docstring.
         initial_c1: the path parameter of the initial plan [m²] (None: ``plan.initial_c1``).
         path_parameter_grid: the c1 values [m²] of the ``remaining_time`` output (None: the
             initial c1 only).
+        wind_input: declare the ``wind`` input port (2) [m/s] and price the staircase in the
+            wind it gives at each stage switch (:func:`StaircaseWind`; held in the
+            ``priced_wind`` state); False (default): the constant ``wind``.
 
     .. pydrake_system::
 
@@ -166,6 +198,7 @@ class StageSequencer(LeafSystem):
         time_step: float | None = None,
         initial_c1: float | None = None,
         path_parameter_grid=None,
+        wind_input: bool = False,
     ):
         super().__init__()
         if not isinstance(plan, PlanSource):
@@ -210,6 +243,10 @@ class StageSequencer(LeafSystem):
         self._time_step = float(time_step)
         self._DeclareState(c1, initial_period, update_period)
         self._DeclarePorts()
+        self._wind_port, self._wind_index = None, None
+        if wind_input:
+            self._wind_port = self.DeclareVectorInputPort("wind", 2)
+            self._wind_index = self.DeclareDiscreteState(self._wind.copy())
 
     def _DeclareState(self, c1: float, initial_period: float, update_period: float) -> None:
         """The discrete state at the plan's first stage flown at ``c1`` [m²], with the period
@@ -309,6 +346,12 @@ class StageSequencer(LeafSystem):
     def get_mission_complete_output_port(self):
         return self._mission_complete_port
 
+    def PricedWind(self, context) -> np.ndarray:
+        """The wind w [m/s] the ``remaining_time`` staircase is priced in now."""
+        if self._wind_index is None:
+            return self._wind.copy()
+        return context.get_discrete_state(self._wind_index).CopyToVector()
+
     def EntryTimes(self, context) -> np.ndarray:
         """Last entry time [s] into each primitive stage (−1 = not yet)."""
         return context.get_discrete_state(self._entries_index).CopyToVector()
@@ -372,8 +415,12 @@ class StageSequencer(LeafSystem):
         source = context.get_discrete_state(self._source_index).value()
         stage = self._StageOf(source)
         key = tuple(source.tolist())
+        w = self._wind
+        if self._wind_index is not None:
+            w = context.get_discrete_state(self._wind_index).value()
+            key += tuple(w.tolist())
         if key != self._rest_key:  # the staircase after the active stage, once per stage
-            plan, v, w = self._plan, self._airspeed, self._wind
+            plan, v = self._plan, self._airspeed
             rest = np.array(
                 [plan.TimeAfter(stage.index, stage.anchor, c1, v, w) for c1 in self._grid]
             )
@@ -446,4 +493,7 @@ class StageSequencer(LeafSystem):
                     period[0] = t - last
                 entries[k] = t
         discrete_state.set_value(self._path_index, stage.descriptor)
+        if self._wind_port is not None and not complete:
+            wind = StaircaseWind(self._wind_port.Eval(context), self._airspeed)
+            discrete_state.set_value(self._wind_index, wind)
         return stage, complete

@@ -50,10 +50,14 @@ from eaplan_drake.params.energy import (
     SensorParams,
 )
 from eaplan_drake.params.flight import (
+    WIND_STAIRCASE_SOURCES,
     CoverageParams,
     GuidanceParams,
+    GustParams,
     MotionPowerParams,
     VehicleParams,
+    WindDriftParams,
+    WindEstimatorParams,
     WindParams,
     WindVector,
 )
@@ -79,6 +83,7 @@ __all__ = [
     "FAULT_SIZE_DISTRIBUTIONS",
     "FaultModelParams",
     "GuidanceParams",
+    "GustParams",
     "IntegerMultiple",
     "MAX_COMPUTATION_PARAMETERS",
     "MAX_COORDINATE",
@@ -111,6 +116,9 @@ __all__ = [
     "SimulationParams",
     "TicksPerPeriod",
     "VehicleParams",
+    "WIND_STAIRCASE_SOURCES",
+    "WindDriftParams",
+    "WindEstimatorParams",
     "WindParams",
     "WindVector",
 ]

@@ -42,3 +42,18 @@ MAX_COMPUTATION_PARAMETERS = 8
 """Largest number of computation parameters σ (computation.initial_parameters) [-]."""
 MAX_NAME_LENGTH = 100
 """Largest length of a scenario's name [characters]."""
+MAX_GUST_SIGMA = 10.0
+"""Largest wind.gusts.sigma [m/s] (severe turbulence near the ground is ≈ 3–4 m/s)."""
+MAX_GUST_LENGTH_SCALE = 10_000.0
+"""Largest wind.gusts.length_scale [m]."""
+MAX_DRIFT_SPEED = 10.0
+"""Largest \\|wind.drift.speed_rate\\| [m/s per minute] and wind.drift.speed_sigma [m/s]."""
+MAX_DRIFT_ANGLE_DEG = 180.0
+"""Largest \\|wind.drift.direction_rate_deg\\| [deg per minute] and
+wind.drift.direction_sigma_deg [deg]."""
+MIN_WIND_TIME_CONSTANT = 0.01
+"""Smallest wind.estimator.time_constant [s]."""
+MAX_POWER_OFFSET = 100.0
+"""Largest \\|computation.power_offset\\| [W]."""
+MIN_BATTERY_HEALTH = 0.1
+"""Smallest battery.health [-]."""

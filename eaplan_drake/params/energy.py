@@ -6,8 +6,10 @@ import dataclasses as dc
 from eaplan_drake.params.bounds import (
     MAX_COMPUTATION_PARAMETERS,
     MAX_FAULTS,
+    MAX_POWER_OFFSET,
     MAX_RATE,
     MAX_VARIANCE,
+    MIN_BATTERY_HEALTH,
 )
 from eaplan_drake.params.checks import (
     _at_most,
@@ -32,6 +34,10 @@ class ComputationParams(_Params):
     """c2(0), one entry per computation parameter (σ of them) [table units, e.g. fps]."""
     integer: bool = True
     """Parameters take only the table's grid values (fps); the planner maps relaxed values back."""
+    power_offset: float = 0.0
+    """ΔP, how far the payload's true power is off the table [W], in [-100, 100]: the aircraft
+    draws g(c2) + ΔP, while the estimator and the planner know g(c2) only. 0 (default): the
+    table is exact."""
 
     def Validate(self, key: str = "computation") -> None:
         _check(bool(self.table), f"{key}.table", "must name a table")
@@ -42,6 +48,7 @@ class ComputationParams(_Params):
             f"at most {MAX_COMPUTATION_PARAMETERS} entries, got {len(self.initial_parameters)}",
         )
         _vector(self.initial_parameters, f"{key}.initial_parameters")
+        _in_range(self.power_offset, f"{key}.power_offset", -MAX_POWER_OFFSET, MAX_POWER_OFFSET)
 
 
 @dc.dataclass
@@ -100,6 +107,11 @@ class BatteryParams(_Params):
     model: str = "rint"
     """Battery model, one of :data:`~eaplan_drake.registry.BATTERY_MODELS` (``rint``: the Rint
     circuit above); the battery system and the planner's prediction both use it."""
+    health: float = 1.0
+    """The pack's usable fraction of its nominal capacity [-], in [0.1, 1] (a pack's is
+    0.8–1.0 with age and temperature): the battery system discharges a capacity of
+    health · Q_c, and its SoC is the fraction of that; the planner keeps the nominal Q_c.
+    1 (default): the pack is as labelled."""
 
     def Validate(self, key: str = "battery") -> None:
         BATTERY_MODELS.Check(self.model, f"{key}.model")
@@ -107,6 +119,7 @@ class BatteryParams(_Params):
         _positive(self.internal_resistance, f"{key}.internal_resistance")
         _positive(self.capacity, f"{key}.capacity")
         _positive(self.k_b, f"{key}.k_b")
+        _in_range(self.health, f"{key}.health", MIN_BATTERY_HEALTH, 1.0)
         _in_range(self.initial_soc, f"{key}.initial_soc", 1e-9, 1.0)
         _in_range(self.reserve_soc, f"{key}.reserve_soc", 0.0, 1.0 - 1e-9)
         _check(

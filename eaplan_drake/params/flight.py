@@ -7,14 +7,20 @@ import numpy as np
 
 from eaplan_drake.params.bounds import (
     MAX_COORDINATE,
+    MAX_DRIFT_ANGLE_DEG,
+    MAX_DRIFT_SPEED,
     MAX_GUIDANCE_GAIN,
+    MAX_GUST_LENGTH_SCALE,
+    MAX_GUST_SIGMA,
     MAX_POLYGON_VERTICES,
+    MIN_WIND_TIME_CONSTANT,
 )
 from eaplan_drake.params.checks import (
     _at_most,
     _check,
     _finite,
     _in_range,
+    _is_int,
     _nonnegative,
     _positive,
     _vector,
@@ -70,21 +76,136 @@ class VehicleParams(_Params):
 
 
 @dc.dataclass
+class GustParams(_Params):
+    """Dryden turbulence added to the mean wind (the low-altitude forms of MIL-HDBK-1797;
+    :mod:`eaplan_drake.flight.wind`): longitudinal and lateral gusts u, v [m/s] along and across
+    the aircraft's heading, each of standard deviation σ, with the length scales L_u = L and
+    L_v = L / 2. Off (σ = 0) by default."""
+
+    sigma: float = 0.0
+    """σ = σ_u = σ_v, the gusts' intensity [m/s], in [0, 10]; 0 = no gusts."""
+    length_scale: float = 200.0
+    """L = L_u = 2 L_v, the longitudinal length scale [m], in [1, 10000] (200 m is the
+    MIL-HDBK-1797 low-altitude L_u at ≈ 50 m above ground)."""
+
+    def Validate(self, key: str = "wind.gusts") -> None:
+        _in_range(self.sigma, f"{key}.sigma", 0.0, MAX_GUST_SIGMA)
+        _in_range(self.length_scale, f"{key}.length_scale", 1.0, MAX_GUST_LENGTH_SCALE)
+
+    @property
+    def on(self) -> bool:
+        return self.sigma > 0.0
+
+
+@dc.dataclass
+class WindDriftParams(_Params):
+    """The mean wind's speed and direction changing over the flight: a ramp plus a seeded random
+    walk, clipped into [0, ``max_speed``] (:mod:`eaplan_drake.flight.wind`). Off (every rate and
+    σ zero) by default."""
+
+    speed_rate: float = 0.0
+    """Ramp of the mean wind speed [m/s per minute], in [-10, 10]."""
+    direction_rate_deg: float = 0.0
+    """Ramp of the direction the mean wind blows towards [deg per minute], in [-180, 180]."""
+    speed_sigma: float = 0.0
+    """Random walk of the speed: the standard deviation of its change over one minute [m/s], in
+    [0, 10]."""
+    direction_sigma_deg: float = 0.0
+    """Random walk of the direction: the standard deviation of its change over one minute [deg],
+    in [0, 180]."""
+    max_speed: float = 12.0
+    """The drifting speed is clipped into [0, max_speed] [m/s]; with drift on it must be below
+    ``vehicle.airspeed`` and at least ``wind.speed``."""
+
+    def Validate(self, key: str = "wind.drift") -> None:
+        _in_range(self.speed_rate, f"{key}.speed_rate", -MAX_DRIFT_SPEED, MAX_DRIFT_SPEED)
+        _in_range(
+            self.direction_rate_deg,
+            f"{key}.direction_rate_deg",
+            -MAX_DRIFT_ANGLE_DEG,
+            MAX_DRIFT_ANGLE_DEG,
+        )
+        _in_range(self.speed_sigma, f"{key}.speed_sigma", 0.0, MAX_DRIFT_SPEED)
+        _in_range(self.direction_sigma_deg, f"{key}.direction_sigma_deg", 0.0, MAX_DRIFT_ANGLE_DEG)
+        _nonnegative(self.max_speed, f"{key}.max_speed")
+
+    @property
+    def on(self) -> bool:
+        return any(
+            v != 0.0
+            for v in (
+                self.speed_rate,
+                self.direction_rate_deg,
+                self.speed_sigma,
+                self.direction_sigma_deg,
+            )
+        )
+
+
+@dc.dataclass
+class WindEstimatorParams(_Params):
+    """The aircraft's wind estimate from its ground velocity and air data (airspeed, heading):
+    a first-order low-pass of ṗ − v_a [cos ψ, sin ψ] (:mod:`eaplan_drake.flight.wind_estimator`)."""
+
+    time_constant: float = 10.0
+    """τ_ŵ, the filter's time constant [s], in [0.01, 1000]: longer averages more gusts out and
+    lags a drifting wind by more (by rate × τ_ŵ on a ramp)."""
+
+    def Validate(self, key: str = "wind.estimator") -> None:
+        _in_range(self.time_constant, f"{key}.time_constant", MIN_WIND_TIME_CONSTANT, 1000.0)
+
+
+WIND_STAIRCASE_SOURCES = ("scenario", "estimated", "truth")
+"""Values of ``wind.staircase``: the wind the sequencer prices its remaining-time staircase in."""
+
+
+@dc.dataclass
 class WindParams(_Params):
-    """Constant wind w = speed · [cos θ_w, sin θ_w]; θ_w is where the wind blows *towards*."""
+    """The wind w [m/s]: a mean wind w̄ = speed · [cos θ_w, sin θ_w] (θ_w is where the wind blows
+    *towards*), constant by default, that may drift, plus gusts; and the wind the sequencer's
+    remaining-time staircase is priced in."""
 
     speed: float = 5.0
-    """‖w‖ [m/s], must be below the airspeed."""
+    """‖w̄(0)‖ [m/s], must be below the airspeed."""
     direction_deg: float = 0.0
-    """θ_w, from +x counter-clockwise [deg]; 0 blows towards +x, 90 towards +y."""
+    """θ_w(0), from +x counter-clockwise [deg]; 0 blows towards +x, 90 towards +y."""
+    gusts: GustParams = dc.field(default_factory=GustParams)
+    drift: WindDriftParams = dc.field(default_factory=WindDriftParams)
+    seed: int = 0
+    """Seed of the gusts' and the drift's draws, an integer >= 0 (derived from the scenario's
+    ``random_seed`` instead when that is >= 0)."""
+    estimator: WindEstimatorParams = dc.field(default_factory=WindEstimatorParams)
+    staircase: str = "scenario"
+    """The wind of the sequencer's remaining-time staircase: ``scenario`` (default) the constant
+    ``speed`` and ``direction_deg`` above, as known at take-off; ``estimated`` the aircraft's
+    estimate (``estimator``), re-read at every stage switch; ``truth`` the true mean wind w̄(t)
+    (an oracle), re-read at every stage switch."""
 
     def Validate(self, key: str = "wind") -> None:
         _nonnegative(self.speed, f"{key}.speed")
         _finite(self.direction_deg, f"{key}.direction_deg")
+        self.gusts.Validate(f"{key}.gusts")
+        self.drift.Validate(f"{key}.drift")
+        _check(
+            _is_int(self.seed) and self.seed >= 0,
+            f"{key}.seed",
+            f"must be an integer >= 0, got {self.seed!r}",
+        )
+        self.estimator.Validate(f"{key}.estimator")
+        _check(
+            self.staircase in WIND_STAIRCASE_SOURCES,
+            f"{key}.staircase",
+            f"must be one of {', '.join(WIND_STAIRCASE_SOURCES)}, got {self.staircase!r}",
+        )
 
     def Vector(self) -> np.ndarray:
-        """w [m/s] (:func:`WindVector`)."""
+        """w̄(0) [m/s] (:func:`WindVector`)."""
         return WindVector(self.speed, self.direction_deg)
+
+    @property
+    def changes(self) -> bool:
+        """True when the wind changes in flight (gusts or drift on)."""
+        return self.gusts.on or self.drift.on
 
 
 def WindVector(speed: float, direction_deg: float) -> np.ndarray:

@@ -109,6 +109,13 @@ class Scenario(_Params):
             return int(self.sensor.seed)
         return int(np.random.SeedSequence([int(self.random_seed), 1]).generate_state(1)[0])
 
+    def WindSeed(self) -> int:
+        """The seed of the gusts' and the drift's draws: ``wind.seed``, or derived from
+        ``random_seed`` (a hash of (s, "wind"), independent of the sensor's)."""
+        if self.random_seed < 0:
+            return int(self.wind.seed)
+        return int(np.random.SeedSequence([int(self.random_seed), 2]).generate_state(1)[0])
+
     def Validate(self) -> "Scenario":
         """Checks every field; raises ScenarioError naming the first bad key. Returns self.
 
@@ -172,8 +179,28 @@ class Scenario(_Params):
             f"must be below vehicle.airspeed = {self.vehicle.airspeed:g} m/s, "
             f"got {self.wind.speed:g}",
         )
+        _CheckDrift(self)
         c1_min = self.coverage.min_turning_radius**2 - self.coverage.turning_radius**2
         _CheckPathParameterBounds(
             self.planner.path_parameter_bounds, "planner.path_parameter_bounds", c1_min
         )
         return self
+
+
+def _CheckDrift(scenario: Scenario) -> None:
+    """With the wind drifting, its bound ``wind.drift.max_speed`` is below the airspeed and at
+    least the starting speed."""
+    wind = scenario.wind
+    if not wind.drift.on:
+        return
+    airspeed = scenario.vehicle.airspeed
+    _check(
+        wind.drift.max_speed < airspeed,
+        "wind.drift.max_speed",
+        f"must be below vehicle.airspeed = {airspeed:g} m/s, got {wind.drift.max_speed:g}",
+    )
+    _check(
+        wind.speed <= wind.drift.max_speed,
+        "wind.drift.max_speed",
+        f"must be >= wind.speed = {wind.speed:g} m/s, got {wind.drift.max_speed:g}",
+    )

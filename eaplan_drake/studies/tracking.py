@@ -40,14 +40,12 @@ def PathError(positions, descriptors) -> np.ndarray:
 
 def MakeTrackingDiagram(scenario: Scenario, plan, c1: float, *, log_period: float | None = None):
     """The guidance loop flying ``plan`` (a :class:`~eaplan_drake.flight.coverage.PlanSource`) at
-    the
-    constant path parameter ``c1`` [m²], with the scenario's vehicle, guidance gains, constant
-    wind, ``coverage.trigger_radius`` and plant (``simulation.plant``,
-    :func:`~eaplan_drake.flight.plant.MakeFixedWingPlant`). Systems are named ``plant``,
-    ``guidance``,
-    ``sequencer``, ``wind``, ``path_parameters``; the signals of :data:`TRACKING_SIGNALS` are
-    logged every ``log_period`` [s] (default ``simulation.log_period``) and ``mission_complete``
-    is exported."""
+    the constant path parameter ``c1`` [m²], with the scenario's vehicle, guidance gains, wind
+    (constant unless ``wind.gusts`` or ``wind.drift`` is on), ``coverage.trigger_radius`` and
+    plant (``simulation.plant``, :func:`~eaplan_drake.flight.plant.MakeFixedWingPlant`).
+    Systems are named ``plant``, ``guidance``, ``sequencer``, ``wind``, ``path_parameters``; the
+    signals of :data:`TRACKING_SIGNALS` are logged every ``log_period`` [s] (default
+    ``simulation.log_period``) and ``mission_complete`` is exported."""
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import LogVectorOutput
 
