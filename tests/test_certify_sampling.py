@@ -150,6 +150,8 @@ def test_cross_entropy_tilt_follows_the_elite_worlds():
     assert TiltedMeanSize(MODEL, theta) == pytest.approx(per_drop, rel=1e-6)
     assert theta > 0.0 and MODEL.rate <= rate <= 5 * MODEL.rate
     assert CrossEntropyTilt(MODEL, 330.0, n, mean, w, np.zeros(n.size, bool)) == (MODEL.rate, 0.0)
+    small = total < np.quantile(total, 0.2)  # elite worlds with fewer, smaller drops: no tilt
+    assert CrossEntropyTilt(MODEL, 330.0, n, mean, w, small & (n > 0)) == (MODEL.rate, 0.0)
     exp = FaultModelParams(sizes="exponential", size_mean=0.05)
     xs = DrawWindows(rng, exp, FaultProposal(330.0, 0.0, (0.0, 1.0), 8.0), 20_000)[1]
     assert np.nanmean(xs) == pytest.approx(TiltedMeanSize(exp, 8.0), rel=0.03)

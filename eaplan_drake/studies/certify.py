@@ -112,7 +112,7 @@ def ProposalFromPilot(
       beyond the pilot's take its last one's); no loss in the pilot: a_n = 1 for n >= 1;
     - importance: one cross-entropy step (:func:`CrossEntropyTilt`) over the elite worlds: the
       excess failures, or, with fewer than 3, the tenth (at least 3) of the feasible worlds with
-      the smallest final margin of the policy (a lost mission first).
+      the largest total drop in the window.
 
     The pilot worlds stay in the run with weight 1: the proposal depends on worlds already
     flown only, so the bound stays valid."""
@@ -146,14 +146,10 @@ def ProposalFromPilot(
         r = (k + 0.5) / (m + 1.0)
         return StratifiedProposal(model, window, mix=mix, allocation=np.sqrt(r * (1.0 - r)))
     elite = lost.copy()
-    if elite.sum() < 3:
-        margin = [
-            r[policy].get("final_margin") if r[policy]["completed"] else -np.inf for _, r in pilot
-        ]
-        score = np.where(feasible, np.nan_to_num(np.asarray(margin, float), nan=-np.inf), np.inf)
-        take = max(3, len(pilot) // 10)
+    if elite.sum() < 3:  # too few losses: the feasible worlds with the most drop in the window
+        total = np.where(feasible, np.nan_to_num(sizes) * counts, -np.inf)
         elite = np.zeros(len(pilot), bool)
-        elite[np.argsort(score, kind="stable")[:take]] = True
+        elite[np.argsort(-total, kind="stable")[: max(3, len(pilot) // 10)]] = True
         elite &= feasible
     rate, theta = CrossEntropyTilt(model, window, counts, sizes, np.ones(len(pilot)), elite)
     return TiltedProposal(model, window, rate, theta, mix=mix)

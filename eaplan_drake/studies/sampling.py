@@ -25,7 +25,7 @@ so every weight is bounded by B = 1 / β (what the anytime bound needs,
 - *importance* (:func:`TiltedProposal`): π = Poisson(λ̃ τ*) and θ by one step of the
   cross-entropy method over a pilot (:func:`CrossEntropyTilt`): λ̃ and the tilted mean size are
   the weighted means of the drops in the pilot's *elite* worlds (its losses, or the worlds with
-  the smallest final margins when losses are too few).
+  the largest total drop in the window when losses are too few), never below the declared ones.
 """
 
 import dataclasses as dc
@@ -243,8 +243,8 @@ def CrossEntropyTilt(
     """(λ̃ [1/s], θ [1/SoC]): one cross-entropy step from pilot worlds (their window counts,
     mean raw drop sizes, weights W and a boolean ``elite`` mask): λ̃ τ* is the W-weighted mean
     count of the elite worlds and θ gives the tilted sizes their W-weighted mean size (per drop).
-    λ̃ is kept in [λ, 5λ] and the tilted mean below the largest size, so that a tilt never
-    draws fewer or absurdly many drops; with no elite world, the declared (λ, 0)."""
+    λ̃ is kept in [λ, 5λ] and θ >= 0, so that a tilt never draws fewer or smaller drops than
+    declared, nor absurdly many; with no elite world, the declared (λ, 0)."""
     n = np.asarray(counts, dtype=float)
     s = np.asarray(mean_sizes, dtype=float)
     w = np.asarray(weights, dtype=float) * np.asarray(elite, dtype=bool)
@@ -256,11 +256,10 @@ def CrossEntropyTilt(
         return rate, 0.0
     target = float(np.sum(w * n * np.nan_to_num(s)) / np.sum(w * n))
     if model.sizes == "exponential":
-        lo, hi = -1e3, 0.5 / model.size_mean
+        lo, hi = 0.0, 0.5 / model.size_mean
     else:
         values = model.size_bounds if model.sizes == "uniform" else model.size_values
-        spread = max(max(values) - min(values), 1e-9)
-        lo, hi = -20.0 / spread, 20.0 / spread
+        lo, hi = 0.0, 20.0 / max(max(values) - min(values), 1e-9)
     target = min(max(target, TiltedMeanSize(model, lo)), TiltedMeanSize(model, hi))
     for _ in range(100):
         mid = 0.5 * (lo + hi)
