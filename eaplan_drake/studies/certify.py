@@ -45,6 +45,8 @@ __all__ = [
     "CertifyReport",
     "CertifyStudy",
     "ProposalFromPilot",
+    "ProposalLine",
+    "RunCertify",
     "WorldSeries",
 ]
 
@@ -110,9 +112,10 @@ def ProposalFromPilot(
     - stratified: Neyman allocation a_n = √(r̂_n (1 − r̂_n)), r̂_n = (k_n + ½) / (n_n + 1) the
       pilot's excess-failure rate among its feasible worlds with n drops in the window (strata
       beyond the pilot's take its last one's); no loss in the pilot: a_n = 1 for n >= 1;
-    - importance: one cross-entropy step (:func:`CrossEntropyTilt`) over the elite worlds: the
-      excess failures, or, with fewer than 3, the tenth (at least 3) of the feasible worlds with
-      the largest total drop in the window.
+    - importance: one cross-entropy step
+      (:func:`~eaplan_drake.studies.sampling.CrossEntropyTilt`) over the elite worlds: the
+      excess failures, or, with fewer than 3, the tenth (at least 3) of the feasible worlds
+      with the largest total drop in the window.
 
     The pilot worlds stay in the run with weight 1: the proposal depends on worlds already
     flown only, so the bound stays valid."""
