@@ -232,3 +232,42 @@ def test_certify_importance_until_decided_writes_weighted_rows_and_resumes(tmp_p
     assert cli_main(args) == 0  # resumes: the same proposal from the same pilot, no flight
     assert (tmp_path / "rows.jsonl").read_bytes() == before
     assert (tmp_path / "certify.md").read_text() == report
+
+
+def test_until_decided_stops_at_the_first_batch_that_settles_the_claim(tmp_path, capsys):
+    import argparse
+
+    from eaplan_drake.studies.certify import RunCertify
+
+    flown = []
+
+    def Fly(study):  # rows without flights: no world is ever lost
+        flown.append(study.draws)
+        rows = []
+        for keys, _ in StudyFlights(study):
+            rows.append(dict(keys, id=f"{keys['world']}{keys['policy']}", status="complete"))
+            rows[-1].update(completed=True, quality=0.5, final_margin=0.1, duration=300.0)
+            rows[-1].update(metric=1.0, wind_speed=3.0, total_fault_drop=0.0)
+        return rows
+
+    args = argparse.Namespace(
+        scenario="plan_i",
+        worlds=500,
+        batch=25,
+        pilot=30,
+        seed=0,
+        rates="fast",
+        set=["planner.policy=mpc"],
+        sampling="plain",
+        until_decided=True,
+        out=str(tmp_path),
+    )
+    (tmp_path / "rows.jsonl").write_text(
+        "".join(json.dumps(r) + "\n" for r in Fly(CertifyStudy("plan_i", 1)))
+    )
+    flown.clear()
+    assert RunCertify(args, Fly) == 0
+    out = capsys.readouterr().out
+    assert flown[-1] < 500 and flown == list(range(25, flown[-1] + 1, 25))
+    assert f"{flown[-1]} worlds: mpc certified" in out and "25 worlds: mpc open" in out
+    assert "certified at ε = 0.05" in (tmp_path / "certify.md").read_text()

@@ -407,6 +407,18 @@ def ProposalLine(proposal: FaultProposal | None, model: FaultModelParams, pilot:
     )
 
 
+def _Within(c: Certificate, worlds: int) -> str:
+    """P(certified within ``worlds``) at the rate measured so far, as text."""
+    if c.certified:
+        return "1"
+    half, most = c.worlds_for_power
+    if most is not None and most <= worlds:
+        return ">= 0.9"
+    if half is not None and half <= worlds:
+        return ">= 0.5"
+    return "< 0.5"
+
+
 def _CheckCount(name: str, value, low: int, high: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
         raise ValueError(f"{name}: must be an integer in [{low}, {high}], got {value!r}")
@@ -468,7 +480,14 @@ def RunCertify(args, fly) -> int:
                 "certified" if c.certified else "refuted" if c.refuted_at else "open"
                 for c in certificates
             ]
-            print(f"{worlds} worlds: " + ", ".join(states))
+            print(
+                f"{worlds} worlds: "
+                + ", ".join(
+                    f"{c.policy} {state} (bound {c.upper:.4f}; P(certified within "
+                    f"{args.worlds}) {_Within(c, args.worlds)})"
+                    for c, state in zip(certificates, states, strict=True)
+                )
+            )
             if "open" not in states:
                 break
     StudyReport(args.out)
