@@ -222,7 +222,7 @@ def test_certify_importance_until_decided_writes_weighted_rows_and_resumes(tmp_p
     assert cli_main(args) == 0
     out = capsys.readouterr().out
     assert "sampling: the first 2 worlds as declared (pilot)" in out
-    assert "3 worlds: open" in out and "anytime-valid betting bound" in out
+    assert "3 worlds: mpc open" in out and "anytime-valid betting bound" in out
     rows = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
     assert len(rows) == 8
     assert all(("weight" in r) == (r["world"] >= 2) for r in rows)
