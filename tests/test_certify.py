@@ -198,27 +198,10 @@ def test_certify_options_are_checked_in_one_line(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_certify_importance_until_decided_writes_weighted_rows_and_resumes(tmp_path, capsys):
-    args = [
-        "certify",
-        "plan_ii",
-        "--worlds",
-        "4",
-        "--pilot",
-        "2",
-        "--batch",
-        "1",
-        "--sampling",
-        "importance",
-        "--until-decided",
-        "--out",
-        str(tmp_path),
-        "--set",
-        "planner.policy=mpc",
-        "--set",
-        "planner.reserve=risk",
-        "--set",
-        "simulation.time_limit=30",
-    ]
+    args = ["certify", "plan_ii", "--worlds", "4", "--pilot", "2", "--batch", "1"]
+    args += ["--sampling", "importance", "--until-decided", "--out", str(tmp_path)]
+    for assignment in ("planner.policy=mpc", "planner.reserve=risk", "simulation.time_limit=30"):
+        args += ["--set", assignment]
     assert cli_main(args) == 0
     out = capsys.readouterr().out
     assert "sampling: the first 2 worlds as declared (pilot)" in out
