@@ -254,3 +254,14 @@ def test_until_decided_stops_at_the_first_batch_that_settles_the_claim(tmp_path,
     assert flown[-1] < 500 and flown == list(range(25, flown[-1] + 1, 25))
     assert f"{flown[-1]} worlds: mpc certified" in out and "25 worlds: mpc open" in out
     assert "certified at ε = 0.05" in (tmp_path / "certify.md").read_text()
+
+
+def test_the_expected_power_is_said_before_a_run():
+    from eaplan_drake.studies.certify import ExpectedPower
+
+    line = ExpectedPower(0.03, 300, 0.05)
+    assert line.startswith("if the rate is 0.03: 300 feasible worlds certify at ε = 0.05 with")
+    assert "probability 0.45" in line and "900 for 90 %" in line
+    assert "more than 100000" in ExpectedPower(0.05, 300, 0.05)
+    with pytest.raises(ValueError, match="--expect: must be a rate in"):
+        ExpectedPower(1.5, 300, 0.05)

@@ -184,8 +184,10 @@ def PlainPower(rate, feasible_fraction, worlds: int, eps, confidence: float = 0.
 
 
 def WorldsForPower(power, target: float = 0.9, largest: int = 100_000) -> int | None:
-    """The fewest worlds N (from 1 to ``largest``) with ``power(N)`` >= ``target`` and every
-    larger N tested above it: a doubling search, then bisection; None beyond ``largest``."""
+    """Worlds N (1 to ``largest``) with ``power(N)`` >= ``target`` and ``power(N − 1)`` below
+    it, found by a doubling search, then bisection; None beyond ``largest``. Counting's power
+    saw-tooths in N (the number of failures allowed jumps), so a few more worlds can have a
+    slightly smaller chance: N is where the chance reaches the target, not a guarantee."""
     n = 16
     while power(n) < target:
         if n >= largest:

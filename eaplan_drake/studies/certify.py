@@ -44,6 +44,7 @@ __all__ = [
     "Certify",
     "CertifyReport",
     "CertifyStudy",
+    "ExpectedPower",
     "ProposalFromPilot",
     "ProposalLine",
     "RunCertify",
@@ -419,6 +420,23 @@ def _Within(c: Certificate, worlds: int) -> str:
     return "< 0.5"
 
 
+def ExpectedPower(rate: float, worlds: int, eps: float, confidence: float = 0.95) -> str:
+    """One line before a run: the chance that ``worlds`` feasible worlds certify at ``eps`` by
+    counting if the excess-failure rate is ``rate``, and the worlds likely needed."""
+    if isinstance(rate, bool) or not (isinstance(rate, float | int) and 0.0 <= rate < 1.0):
+        raise ValueError(f"--expect: must be a rate in [0, 1), got {rate!r}")
+
+    def power(n):
+        return PlainPower(float(rate), 1.0, n, eps, confidence)
+
+    half, most = (WorldsForPower(power, p, largest=100_000) for p in (0.5, 0.9))
+    return (
+        f"if the rate is {rate:g}: {worlds} feasible worlds certify at ε = {eps:g} with "
+        f"probability {power(worlds):.2f} (counting); worlds likely needed: "
+        f"{half or 'more than 100000'} for a 50 % chance, {most or 'more than 100000'} for 90 %"
+    )
+
+
 def _CheckCount(name: str, value, low: int, high: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
         raise ValueError(f"{name}: must be an integer in [{low}, {high}], got {value!r}")
@@ -458,6 +476,8 @@ def RunCertify(args, fly) -> int:
             proposal_from=args.pilot if weighted else 0,
         )
 
+    if getattr(args, "expect", None) is not None:
+        print(ExpectedPower(args.expect, args.worlds, eps))
     proposal = None
     if weighted:
         rows = fly(Make(args.pilot))

@@ -72,6 +72,14 @@ def AddCertifyArguments(p) -> None:
         "--batch", type=int, default=50, help="worlds per batch with --until-decided (50)"
     )
     p.add_argument(
+        "--expect",
+        type=float,
+        default=None,
+        metavar="RATE",
+        help="before flying, print how likely --worlds worlds are to certify if the excess-"
+        "failure rate is RATE, and how many worlds the claim is likely to need",
+    )
+    p.add_argument(
         "--pilot",
         type=int,
         default=30,
