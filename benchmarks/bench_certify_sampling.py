@@ -15,8 +15,10 @@ seeds, and the power figure of kept real certify rows. Not a test.
 3. ``--rows``: kept real rows and their claim (default: the 340-world survey runs at ε = 0.05
    and 0.01 in benchmarks/results/certify): the power of counting and of the anytime bound at
    their measured rate.
-4. ``--real DIR``: certify output directories of real runs (plain and weighted): their verdicts
-   and the mean wall time per flight of each (the weighting must not cost flights).
+4. The weighting's own cost: drawing 200 worlds plain and with a proposal.
+5. ``--real DIR|ROWS``: certify output directories or rows files of real runs (plain and
+   weighted): their verdicts and the mean wall time per flight of each (on a shared machine the
+   wall times also measure the other load).
 """
 
 import argparse
@@ -172,10 +174,30 @@ def RowsPower(path: Path, eps: float) -> None:
     )
 
 
+def DrawCost(worlds: int = 200) -> None:
+    """The weighting's own cost per world: drawing the worlds' flights (plain, then with an
+    importance proposal), as a ratio measured in this run; the flights are the same in number."""
+    from eaplan_drake.studies.certify import CertifyStudy
+    from eaplan_drake.studies.sweep import StudyFlights
+
+    model = StandIn().model
+    times = []
+    for proposal in (None, TiltedProposal(model, 520.0, 2 * model.rate, 4.0)):
+        study = CertifyStudy("survey", worlds, proposal=proposal)
+        t0 = time.perf_counter()
+        StudyFlights(study)
+        times.append((time.perf_counter() - t0) / worlds)
+    print(
+        f"## cost of weighting\n\ndrawing a world's two flights: plain {1e3 * times[0]:.2f} ms, "
+        f"importance {1e3 * times[1]:.2f} ms (ratio {times[1] / times[0]:.2f})\n"
+    )
+
+
 def RealRuns(dirs: list[str]) -> None:
     print("## real runs\n")
     for d in dirs:
-        rows = [json.loads(line) for line in (Path(d) / "rows.jsonl").read_text().splitlines()]
+        path = Path(d) / "rows.jsonl" if Path(d).is_dir() else Path(d)
+        rows = [json.loads(line) for line in path.read_text().splitlines()]
         walls = [r["wall_time"] for r in rows if r.get("wall_time")]
         print(f"### {d}: {len(rows)} flights, mean wall time {np.mean(walls):.2f} s per flight\n")
         for c in Certify(rows, 0.05):
@@ -200,6 +222,7 @@ def main() -> None:
     for item in args.rows:
         path, _, eps = item.rpartition("=")
         RowsPower(Path(path), float(eps))
+    DrawCost()
     if args.real:
         RealRuns(args.real)
     print(f"({time.perf_counter() - t0:.0f} s)")
