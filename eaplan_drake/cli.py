@@ -225,34 +225,9 @@ def _Sweep(args) -> int:
 
 def _Certify(args) -> int:
     _CheckBackend(args, "certify")
-    from eaplan_drake.files import AtomicWrite
-    from eaplan_drake.studies.certify import Certify, CertifyReport, CertifyStudy
-    from eaplan_drake.studies.sweep import StudyReport
+    from eaplan_drake.studies.certify import RunCertify
 
-    ShippedFile(args.scenario, "scenarios")
-    overrides = {}
-    for assignment in args.set:
-        OverrideFromAssignment(assignment)  # the one-line error for a malformed --set
-        key, _, value = assignment.partition("=")
-        overrides[key.strip()] = value
-    study = CertifyStudy(
-        args.scenario, args.worlds, seed=args.seed, rates=args.rates, overrides=overrides
-    )
-    from eaplan_drake.loading import LayerScenario, LoadNamedScenario
-
-    scenario = LayerScenario(
-        LoadNamedScenario(args.scenario), [OverrideFromAssignment(a) for a in args.set]
-    )
-    rows = _FlyStudy(study, ".", args)
-    if rows is None:
-        return 3
-    StudyReport(args.out)
-    text = "".join(CertifyReport(c) for c in Certify(rows, scenario.planner.risk))
-    out = Path(args.out) / "certify.md"
-    AtomicWrite(out, lambda f: f.write(f"# certify {scenario.name}\n\n{text}"), binary=False)
-    print(text, end="")
-    print(f"rows, report and figures in {args.out} ({out.name})")
-    return 0
+    return RunCertify(args, lambda study: _FlyStudy(study, ".", args))
 
 
 def _StudyReport(args) -> int:
@@ -482,33 +457,14 @@ def _AddSweepParser(sub) -> None:
 
 def _AddCertifyParser(sub) -> None:
     """The ``certify`` subcommand's arguments."""
+    from eaplan_drake.studies.certify_options import CERTIFY_DESCRIPTION, AddCertifyArguments
+
     p = sub.add_parser(
         "certify",
         help="measure a scenario's excess-failure rate over random worlds and certify its risk",
-        description="Draw --worlds random worlds (wind, sensor noise and dropouts in the "
-        "benchmark's ranges, battery faults from the scenario's planner.fault_model), fly the "
-        "static lowest plan and the scenario's policy on each, and print the excess-failure "
-        "rate (lost where the lowest plan completes) with its exact one-sided 95 % upper bound; "
-        "'certified at ε' (planner.risk) only when that bound is at most ε. Resumes like sweep. "
-        "Exit status 2: bad input or missing extra; 3: the Dask cluster did not fly it.",
+        description=CERTIFY_DESCRIPTION,
     )
-    p.add_argument("scenario", help="shipped name (plan_i, survey, …) or YAML path")
-    p.add_argument("--out", required=True, help="output directory (rows.jsonl, certify.md)")
-    p.add_argument("--worlds", type=int, default=300, help="number of worlds (default 300)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the world draws (default 0)")
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="KEY.PATH=VALUE",
-        help="override a key of the scenario (repeatable), e.g. planner.risk=0.01",
-    )
-    p.add_argument(
-        "--rates",
-        choices=(*RATE_PRESETS, "scenario"),
-        default="fast",
-        help="rates of every flight (default fast; paper = 100 Hz; scenario = its own)",
-    )
+    AddCertifyArguments(p)
     _AddBackendArguments(p)
     p.set_defaults(run=_Certify)
 

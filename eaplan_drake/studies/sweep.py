@@ -123,6 +123,12 @@ class Study:
     rate ``rate`` over the flight's ``simulation.time_limit``, sizes from its distribution. The
     base's own ``planner.fault_model`` makes the planner's belief true; another one is a
     mismatch. Not together with ``faults``."""
+    fault_proposal: object = None
+    """A :class:`~eaplan_drake.studies.sampling.FaultProposal` (Python only): draws from
+    ``proposal_from`` on take the ``fault_model``'s drops in its window from it, and their rows
+    carry ``weight`` (the exact likelihood ratio), ``weight_bound`` and ``stratum``."""
+    proposal_from: int = 0
+    """First draw drawn from ``fault_proposal`` (the ones before: as declared, weight 1)."""
     draws: int = 1
     """Number of random draws per grid point."""
     seed: int = 0
@@ -160,6 +166,8 @@ def LoadStudy(filename: str | Path) -> tuple[Study, Path]:
         study = Study(**raw)
     except TypeError as e:
         raise ScenarioError(f"{path}: {e}") from None
+    if raw.get("fault_proposal") is not None or raw.get("proposal_from"):
+        raise ScenarioError(f"{path}: fault_proposal, proposal_from: set by certify, not in a file")
     if study.faults is not None and study.fault_model is not None:
         raise ScenarioError(f"{path}: faults, fault_model: give one of them, not both")
     for key in ("set", "grid", "uniform", "normal", "choice"):
@@ -234,6 +242,16 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
                 ]
                 varied["faults.count"] = n
                 varied["faults.total_drop"] = float(np.sum(drops))
+            elif study.fault_proposal is not None and draw >= study.proposal_from:
+                from eaplan_drake.studies.sampling import DrawProposedFaults
+
+                proposal = study.fault_proposal
+                s.battery.faults, weight, stratum = DrawProposedFaults(
+                    rng, study.fault_model, s.simulation.time_limit, proposal
+                )
+                varied.update(weight=weight, weight_bound=proposal.weight_bound, stratum=stratum)
+                varied["faults.count"] = len(s.battery.faults)
+                varied["faults.total_drop"] = float(sum(f.soc_drop for f in s.battery.faults))
             elif study.fault_model is not None:
                 s.battery.faults = DrawFaults(rng, study.fault_model, s.simulation.time_limit)
                 varied["faults.count"] = len(s.battery.faults)
