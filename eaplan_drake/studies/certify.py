@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
-from eaplan_drake.params import FaultModelParams
+from eaplan_drake.params import FaultModelParams, Scenario
 from eaplan_drake.studies.bounds import (
     PlainPower,
     SequentialDecision,
@@ -73,18 +73,22 @@ def CertifyStudy(
     fault_model: FaultModelParams | None = None,
     proposal: FaultProposal | None = None,
     proposal_from: int = 0,
+    base: Scenario | None = None,
 ) -> Study:
     """The study that certifies ``scenario`` (a shipped name or a YAML path, with ``overrides``
     key path → YAML value): ``worlds`` worlds of :data:`CERTIFY_RANGES` with faults from
     ``fault_model`` (default: the scenario's ``planner.fault_model``, the belief made true),
     each flown with the lowest plan and the scenario's policy. With ``proposal``, worlds from
     ``proposal_from`` on draw the drops of its window from it (stratified or importance
-    sampling, :mod:`eaplan_drake.studies.sampling`); world k is the same for any ``worlds``."""
+    sampling, :mod:`eaplan_drake.studies.sampling`); world k is the same for any ``worlds``.
+    ``base``: ``scenario`` with ``overrides`` already layered (a caller that has it), read for
+    the study's name, policy and fault model instead of layering them again."""
     if isinstance(worlds, bool) or not isinstance(worlds, int) or not 1 <= worlds <= 100_000:
         raise ValueError(f"worlds: must be an integer in [1, 100000], got {worlds!r}")
     overrides = dict(overrides or {})
-    layers = [OverrideFromAssignment(f"{k}={v}") for k, v in overrides.items()]
-    base = LayerScenario(LoadNamedScenario(scenario), layers)
+    if base is None:
+        layers = [OverrideFromAssignment(f"{k}={v}") for k, v in overrides.items()]
+        base = LayerScenario(LoadNamedScenario(scenario), layers)
     model = base.planner.fault_model if fault_model is None else fault_model
     model.Validate("fault_model")
     if proposal is not None:
@@ -457,14 +461,12 @@ def RunCertify(args, fly) -> int:
     weighted = args.sampling != "plain"
     if weighted:
         _CheckCount("--pilot", args.pilot, 1, max(1, args.worlds - 1))
-    overrides = {}
-    for assignment in args.set:
-        OverrideFromAssignment(assignment)  # the one-line error for a malformed --set
+    overrides, layers = {}, []
+    for assignment in args.set:  # parsed once (a malformed --set is one line naming it)
+        layers.append(OverrideFromAssignment(assignment))
         key, _, value = assignment.partition("=")
         overrides[key.strip()] = value
-    scenario = LayerScenario(
-        LoadNamedScenario(args.scenario), [OverrideFromAssignment(a) for a in args.set]
-    )
+    scenario = LayerScenario(LoadNamedScenario(args.scenario), layers)  # layered once
     eps = scenario.planner.risk
 
     def Make(worlds, proposal=None):
@@ -476,6 +478,7 @@ def RunCertify(args, fly) -> int:
             overrides=overrides,
             proposal=proposal,
             proposal_from=args.pilot if weighted else 0,
+            base=scenario,
         )
 
     if getattr(args, "expect", None) is not None:
