@@ -265,3 +265,30 @@ def test_the_expected_power_is_said_before_a_run():
     assert "more than 100000" in ExpectedPower(0.05, 300, 0.05)
     with pytest.raises(ValueError, match="--expect: must be a rate in"):
         ExpectedPower(1.5, 300, 0.05)
+
+
+def test_changing_worlds_draw_their_stated_ranges_and_keep_the_users_keys():
+    from eaplan_drake.studies.certify import CHANGING_WORLD_RANGES, CertifyStudy
+    from eaplan_drake.studies.sweep import StudyFlights
+
+    study = CertifyStudy("survey", 60, changing=True, overrides={"battery.health": "0.9"})
+    assert "battery.health" not in study.uniform  # the user's value, not a draw
+    flights = [s for k, s in StudyFlights(study) if k["policy"] != "lowest"]
+    assert len(flights) == 60
+    for key, (lo, hi) in CHANGING_WORLD_RANGES.items():
+        if key == "battery.health":
+            assert {s.battery.health for s in flights} == {0.9}
+            continue
+        head, *rest = key.split(".")
+        values = []
+        for s in flights:
+            v = getattr(s, head)
+            for part in rest:
+                v = getattr(v, part)
+            values.append(v)
+        assert (
+            lo <= min(values) and max(values) <= hi and max(values) - min(values) > 0.5 * (hi - lo)
+        )
+    assert {s.wind.staircase for s in flights} == {"estimated"}
+    plain = CertifyStudy("survey", 60)
+    assert not set(CHANGING_WORLD_RANGES) & set(plain.uniform)

@@ -42,6 +42,8 @@ from eaplan_drake.studies.sweep import LOWEST, Study
 
 __all__ = [
     "CERTIFY_RANGES",
+    "CHANGING_WORLD_RANGES",
+    "CHANGING_WORLD_SET",
     "Certificate",
     "Certify",
     "CertifyReport",
@@ -62,6 +64,23 @@ CERTIFY_RANGES = {
 """The world distribution besides the faults (uniform ranges; the benchmark's): wind [m/s],
 its direction [deg], sensor noise [W] and the probability that a sample is lost [-]."""
 
+CHANGING_WORLD_RANGES = {
+    "wind.gusts.sigma": [0.0, 2.0],
+    "wind.drift.speed_rate": [-0.6, 0.6],
+    "wind.drift.direction_rate_deg": [-9.0, 9.0],
+    "battery.health": [0.85, 1.0],
+    "computation.power_offset": [-2.0, 2.0],
+}
+"""What ``certify --changing-worlds`` adds to :data:`CERTIFY_RANGES` (uniform ranges): Dryden
+gusts of intensity σ [m/s] up to 2; a mean wind drifting by up to ±0.6 m/s and ±9° a minute
+(±4 m/s and ±60° over a survey of about 7 minutes), clipped below the airspeed; a pack whose
+usable capacity is 85–100 % of its label; a payload ±2 W off its table. The estimator and the
+planner are told none of them; the remaining-time staircase is priced in the aircraft's own wind
+estimate (``wind.staircase: estimated``)."""
+
+CHANGING_WORLD_SET = {"wind.staircase": "estimated"}
+"""The keys ``certify --changing-worlds`` sets on every world."""
+
 
 def CertifyStudy(
     scenario: str,
@@ -74,6 +93,7 @@ def CertifyStudy(
     proposal: FaultProposal | None = None,
     proposal_from: int = 0,
     base: Scenario | None = None,
+    changing: bool = False,
 ) -> Study:
     """The study that certifies ``scenario`` (a shipped name or a YAML path, with ``overrides``
     key path → YAML value): ``worlds`` worlds of :data:`CERTIFY_RANGES` with faults from
@@ -82,10 +102,16 @@ def CertifyStudy(
     ``proposal_from`` on draw the drops of its window from it (stratified or importance
     sampling, :mod:`eaplan_drake.studies.sampling`); world k is the same for any ``worlds``.
     ``base``: ``scenario`` with ``overrides`` already layered (a caller that has it), read for
-    the study's name, policy and fault model instead of layering them again."""
+    the study's name, policy and fault model instead of layering them again. ``changing``: the
+    worlds change in flight (:data:`CHANGING_WORLD_RANGES`, :data:`CHANGING_WORLD_SET`; a key the
+    overrides set keeps the overrides' value)."""
     if isinstance(worlds, bool) or not isinstance(worlds, int) or not 1 <= worlds <= 100_000:
         raise ValueError(f"worlds: must be an integer in [1, 100000], got {worlds!r}")
     overrides = dict(overrides or {})
+    ranges = dict(CERTIFY_RANGES)
+    if changing:
+        ranges.update({k: v for k, v in CHANGING_WORLD_RANGES.items() if k not in overrides})
+        overrides = {**CHANGING_WORLD_SET, **overrides}
     if base is None:
         layers = [OverrideFromAssignment(f"{k}={v}") for k, v in overrides.items()]
         base = LayerScenario(LoadNamedScenario(scenario), layers)
@@ -97,7 +123,7 @@ def CertifyStudy(
         name=f"certify_{base.name}",
         base=str(scenario),
         set=overrides,
-        uniform=dict(CERTIFY_RANGES),
+        uniform=ranges,
         fault_model=model,
         draws=int(worlds),
         seed=int(seed),
@@ -479,6 +505,7 @@ def RunCertify(args, fly) -> int:
             proposal=proposal,
             proposal_from=args.pilot if weighted else 0,
             base=scenario,
+            changing=getattr(args, "changing_worlds", False),
         )
 
     if getattr(args, "expect", None) is not None:

@@ -58,6 +58,12 @@ def AddCertifyArguments(p) -> None:
         help="rates of every flight (default fast; paper = 100 Hz; scenario = its own)",
     )
     p.add_argument(
+        "--changing-worlds",
+        action="store_true",
+        help="worlds that change in flight: gusts, a drifting wind, a pack below its label and "
+        "a payload off its table (ranges in the docs); the staircase in the estimated wind",
+    )
+    p.add_argument(
         "--sampling",
         choices=SAMPLING_MODES,
         default="plain",
