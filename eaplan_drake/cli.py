@@ -208,7 +208,8 @@ def _FlyStudy(study, directory, args, save_logs: bool = False):
 
 def _Sweep(args) -> int:
     _CheckBackend(args, "sweep")
-    from eaplan_drake.studies.sweep import LoadStudy, StudyReport
+    from eaplan_drake.studies.study import LoadStudy
+    from eaplan_drake.studies.sweep import StudyReport
 
     study, directory = LoadStudy(ShippedFile(args.study, "studies")[0])
     if args.rates:

@@ -193,7 +193,7 @@ def test_certify_options_are_checked_in_one_line(tmp_path, capsys):
     assert cli_main([*base, "--sampling", "importance", "--pilot", "5"]) == 2
     assert "--pilot: must be an integer in [1, 4]" in capsys.readouterr().err
     assert cli_main([*base, "--until-decided", "--batch", "0"]) == 2
-    assert "--batch: must be an integer in [1, 100000]" in capsys.readouterr().err
+    assert "--batch: must be an integer in [1, 20000]" in capsys.readouterr().err
 
 
 @pytest.mark.slow

@@ -38,12 +38,14 @@ from eaplan_drake.studies.bounds import (
 )
 from eaplan_drake.studies.sampling import FaultProposal
 from eaplan_drake.studies.statistics import ClopperPearsonUpper, WorldsNeeded
-from eaplan_drake.studies.sweep import LOWEST, Study
+from eaplan_drake.studies.study import MAX_STUDY_FLIGHTS, Study
+from eaplan_drake.studies.sweep import LOWEST
 
 __all__ = [
     "CERTIFY_RANGES",
     "CHANGING_WORLD_RANGES",
     "CHANGING_WORLD_SET",
+    "MAX_WORLDS",
     "Certificate",
     "Certify",
     "CertifyReport",
@@ -54,6 +56,9 @@ __all__ = [
     "RunCertify",
     "WorldSeries",
 ]
+
+MAX_WORLDS = MAX_STUDY_FLIGHTS // 2
+"""The most worlds one certify run flies (each world twice: the lowest plan and the policy)."""
 
 CERTIFY_RANGES = {
     "wind.speed": [0.0, 12.0],
@@ -105,8 +110,8 @@ def CertifyStudy(
     the study's name, policy and fault model instead of layering them again. ``changing``: the
     worlds change in flight (:data:`CHANGING_WORLD_RANGES`, :data:`CHANGING_WORLD_SET`; a key the
     overrides set keeps the overrides' value)."""
-    if isinstance(worlds, bool) or not isinstance(worlds, int) or not 1 <= worlds <= 100_000:
-        raise ValueError(f"worlds: must be an integer in [1, 100000], got {worlds!r}")
+    if isinstance(worlds, bool) or not isinstance(worlds, int) or not 1 <= worlds <= MAX_WORLDS:
+        raise ValueError(f"worlds: must be an integer in [1, {MAX_WORLDS}], got {worlds!r}")
     overrides = dict(overrides or {})
     ranges = dict(CERTIFY_RANGES)
     if changing:
@@ -482,8 +487,10 @@ def RunCertify(args, fly) -> int:
     from eaplan_drake.files import AtomicWrite
     from eaplan_drake.studies.sweep import StudyReport
 
-    _CheckCount("--worlds", args.worlds, 1, 100_000)
-    _CheckCount("--batch", args.batch, 1, 100_000)
+    _CheckCount("--worlds", args.worlds, 1, MAX_WORLDS)
+    _CheckCount("--batch", args.batch, 1, MAX_WORLDS)
+    if isinstance(args.seed, bool) or not isinstance(args.seed, int) or args.seed < 0:
+        raise ValueError(f"--seed: must be an integer >= 0, got {args.seed!r}")
     weighted = args.sampling != "plain"
     if weighted:
         _CheckCount("--pilot", args.pilot, 1, max(1, args.worlds - 1))

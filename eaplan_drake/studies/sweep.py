@@ -36,7 +36,6 @@ pass ``--backend dask --scheduler tcp://host:8786`` (or the ``Client`` in Python
 (:class:`~eaplan_drake.studies.cluster.ClusterError` after it).
 """
 
-import dataclasses as dc
 import hashlib
 import itertools
 import json
@@ -50,27 +49,29 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.errors import ScenarioError
-from eaplan_drake.files import JsonSafe, ReadTextFile
+from eaplan_drake.files import JsonSafe
 from eaplan_drake.loading import (
-    MAX_SCENARIO_BYTES,
     LayerScenario,
     OverrideFromAssignment,
-    YamlData,
 )
 from eaplan_drake.params import MAX_FAULTS, BatteryFault, FaultModelParams, Scenario
-from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS, WithRates
+from eaplan_drake.rates import WithRates
 from eaplan_drake.studies.cluster import WAIT_FOR_WORKERS, ClusterError, MapOnDask, Wait
+from eaplan_drake.studies.study import (  # noqa: F401 (the study's schema, importable from here)
+    KEEP_RATES,
+    FaultDistribution,
+    LoadStudy,
+    Study,
+    StudyFlightCount,
+)
 
 __all__ = [
     "CheckJobs",
     "DrawFaults",
     "ClusterError",
-    "FaultDistribution",
     "FlyRow",
-    "LoadStudy",
     "MAX_JOBS",
     "RunStudy",
-    "Study",
     "StudyFlights",
     "StudyReport",
     "WilsonInterval",
@@ -81,116 +82,8 @@ TORN_FILE = "rows.jsonl.torn"
 """Where lines of ``rows.jsonl`` that are not whole rows (cut by a kill) are set aside."""
 MAX_JOBS = 1024
 """Largest ``n_jobs`` (loky worker processes)."""
-KEEP_RATES = "scenario"
-"""``Study.rates`` value that keeps the base scenario's own rates."""
 LOWEST = "lowest"
 """Pseudo-policy of the static lowest-quality reference flight."""
-
-
-@dc.dataclass
-class FaultDistribution:
-    """Random battery faults: a count, and each fault's time and size, all uniform."""
-
-    count: list[int] = dc.field(default_factory=lambda: [0, 3])
-    """[min, max] number of faults (integers, inclusive)."""
-    time: list[float] = dc.field(default_factory=lambda: [0.0, 500.0])
-    """[min, max] time of a fault [s]."""
-    soc_drop: list[float] = dc.field(default_factory=lambda: [0.0, 0.15])
-    """[min, max] SoC lost per fault [-] (a drop of 0 is stored as 1e-6)."""
-
-
-@dc.dataclass
-class Study:
-    """A study file (YAML). Keys are scenario key paths (``wind.speed``)."""
-
-    name: str = "study"
-    base: str = "plan_i"
-    """Shipped scenario name or YAML path (relative to the study file)."""
-    set: dict = dc.field(default_factory=dict)
-    """Fixed overrides, key path → YAML value (as ``--set``)."""
-    grid: dict = dc.field(default_factory=dict)
-    """Key path → list of YAML values; every combination is flown."""
-    uniform: dict[str, list[float]] = dc.field(default_factory=dict)
-    """Key path → [low, high]."""
-    normal: dict[str, list[float]] = dc.field(default_factory=dict)
-    """Key path → [mean, standard deviation]."""
-    choice: dict = dc.field(default_factory=dict)
-    """Key path → list of YAML values, one drawn uniformly."""
-    faults: FaultDistribution | None = None
-    """Random battery faults (replace the base's), or none."""
-    fault_model: FaultModelParams | None = None
-    """Random battery faults drawn from a fault model (replace the base's): Poisson arrivals of
-    rate ``rate`` over the flight's ``simulation.time_limit``, sizes from its distribution. The
-    base's own ``planner.fault_model`` makes the planner's belief true; another one is a
-    mismatch. Not together with ``faults``."""
-    fault_proposal: object = None
-    """A :class:`~eaplan_drake.studies.sampling.FaultProposal` (Python only): draws from
-    ``proposal_from`` on take the ``fault_model``'s drops in its window from it, and their rows
-    carry ``weight`` (the exact likelihood ratio), ``weight_bound`` and ``stratum``."""
-    proposal_from: int = 0
-    """First draw drawn from ``fault_proposal`` (the ones before: as declared, weight 1)."""
-    draws: int = 1
-    """Number of random draws per grid point."""
-    seed: int = 0
-    """Study seed; each draw's ``random_seed`` (hence its sensor noise) derives from it."""
-    policies: list[str] = dc.field(default_factory=lambda: ["mpc"])
-    """Planner policies flown on every world."""
-    lowest_reference: bool = True
-    """Also fly every world with the static lowest plan (c1 = c̲1, c2 = c̲2)."""
-    rates: str = DEFAULT_STUDY_RATES
-    """Rates of every flight: a preset of :data:`~eaplan_drake.rates.RATE_PRESETS` applied to the
-    base scenario before ``set`` (:func:`~eaplan_drake.rates.WithRates`): ``fast`` (default;
-    20 Hz plant, 10 Hz averaging sensor and filter, README "Rates"), ``paper`` (100 Hz, as
-    ``simulate``), or ``scenario`` (the base scenario's own rates)."""
-
-
-def LoadStudy(filename: str | Path) -> tuple[Study, Path]:
-    """The :class:`Study` of a YAML file and the file's directory. ScenarioError (one line
-    naming the file and the key) on bad input."""
-    path = Path(filename)
-    if not path.is_file():
-        raise ScenarioError(f"{path}: no such study file")
-    raw = YamlData(ReadTextFile(path, MAX_SCENARIO_BYTES, ScenarioError), str(path))
-    if not isinstance(raw, dict):
-        raise ScenarioError(f"{path}: a study is a mapping of keys")
-    fields = {f.name for f in dc.fields(Study)}
-    for key in raw:
-        if key not in fields:
-            raise ScenarioError(f"{path}: {key}: unknown key (known: {', '.join(sorted(fields))})")
-    try:
-        if raw.get("faults") is not None:
-            raw["faults"] = FaultDistribution(**raw["faults"])
-        if raw.get("fault_model") is not None:
-            raw["fault_model"] = FaultModelParams(**raw["fault_model"])
-            raw["fault_model"].Validate(f"{path}: fault_model")
-        study = Study(**raw)
-    except TypeError as e:
-        raise ScenarioError(f"{path}: {e}") from None
-    if raw.get("fault_proposal") is not None or raw.get("proposal_from"):
-        raise ScenarioError(f"{path}: fault_proposal, proposal_from: set by certify, not in a file")
-    if study.faults is not None and study.fault_model is not None:
-        raise ScenarioError(f"{path}: faults, fault_model: give one of them, not both")
-    for key in ("set", "grid", "uniform", "normal", "choice"):
-        if not isinstance(getattr(study, key), dict):
-            raise ScenarioError(f"{path}: {key}: expected a mapping of key paths")
-    for key in ("uniform", "normal"):
-        for k, v in getattr(study, key).items():
-            if not (isinstance(v, list) and len(v) == 2):
-                raise ScenarioError(f"{path}: {key}.{k}: expected [a, b], got {v!r}")
-    for key in ("grid", "choice"):
-        for k, v in getattr(study, key).items():
-            if not (isinstance(v, list) and v):
-                raise ScenarioError(f"{path}: {key}.{k}: expected a non-empty list, got {v!r}")
-    if not (isinstance(study.draws, int) and 1 <= study.draws <= 1_000_000):
-        raise ScenarioError(f"{path}: draws: must be an integer in [1, 1000000]")
-    if not study.policies:
-        raise ScenarioError(f"{path}: policies: needs at least one policy")
-    if study.rates not in (*RATE_PRESETS, KEEP_RATES):
-        raise ScenarioError(
-            f"{path}: rates: must be one of {', '.join((*RATE_PRESETS, KEEP_RATES))}, "
-            f"got {study.rates!r}"
-        )
-    return study, path.parent
 
 
 def _Value(v) -> str:
@@ -199,7 +92,10 @@ def _Value(v) -> str:
 
 def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, Scenario]]:
     """Every flight of the study as (row keys, scenario): row keys are ``world`` (index),
-    ``policy``, ``draw`` and the varied values by key path. Scenarios are validated."""
+    ``policy``, ``draw`` and the varied values by key path. Scenarios are validated, and the
+    study first (:meth:`~eaplan_drake.studies.study.Study.Validate`: its ranges and its number of
+    flights)."""
+    study.Validate()
     from eaplan_drake.loading import LoadNamedScenario
     from eaplan_drake.studies.worlds import LowestPlan, WithPolicy
 
@@ -535,6 +431,9 @@ def RunStudy(
             :class:`~eaplan_drake.studies.cluster.ClusterError` after it.
     """
     n_jobs, wait = _CheckBackend(backend, n_jobs, wait_for_workers)
+    total = StudyFlightCount(study.Validate())
+    if progress:  # within a second, before the worlds are built
+        print(f"preparing {total} flights of {study.name} …", file=sys.stderr, flush=True)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rows_path = out / ROWS_FILE
