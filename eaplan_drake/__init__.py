@@ -66,7 +66,7 @@ _PUBLIC = {
     # output, studies, logs
     "PlotFlight": "output.plots",
     "SaveFlightReplay": "output.replay",
-    "LoadStudy": "studies.sweep",
+    "LoadStudy": "studies.study",
     "RunStudy": "studies.sweep",
     "StudyReport": "studies.sweep",
     "ReadPowerLog": "logfit.powerlog",
