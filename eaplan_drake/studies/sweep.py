@@ -2,14 +2,14 @@
 cluster.
 
 A *study* (YAML, :class:`~eaplan_drake.studies.study.Study`) names a base scenario, fixed
-overrides, a grid over named keys, random draws from named distributions (uniform, normal,
-choice; battery faults as a random count with random times and sizes), the policies to compare
-and a study seed. :func:`StudyFlights` expands it into flights: every (grid point, draw) is a *world*, flown once per policy (and, with
-``lowest_reference``, once with the static lowest-quality plan, so that completion can be reported
-on the worlds that plan completes). Draw d of a study with seed s uses
+overrides, a grid over named keys, random draws from named distributions (uniform, normal, choice;
+battery faults as a random count with random times and sizes), the policies to compare and a study
+seed. :func:`StudyFlights` expands it into flights: every (grid point, draw) is a *world*, flown
+once per policy (and, with ``lowest_reference``, once with the static lowest-quality plan, so that
+completion can be reported on the worlds that plan completes). Draw d of a study with seed s uses
 ``numpy.random.default_rng([s, d])`` at every grid point (common random numbers: grid points are
-compared on the same random worlds), so the same study file gives the same flights on any
-machine, in any order and with any number of workers.
+compared on the same random worlds), so the same study file gives the same flights on any machine,
+in any order and with any number of workers.
 
 :func:`RunStudy` flies them with joblib (``loky`` by default: worker processes are reused, so
 pydrake is imported once per worker; BLAS threads capped at one; a worker whose parent process is
