@@ -82,6 +82,11 @@ def SampleWorlds(belief, horizon, worlds, rng):
         (lambda: ExponentialSizeBelief(2.0, 0.1).Update([0.1, math.nan]), "sizes"),
         (lambda: FaultBelief(0.003, SIZES["uniform"]), "FaultBelief.rate"),
         (lambda: FaultBelief(RateBelief(1.0, 1.0), "uniform"), "FaultBelief.sizes"),
+        (lambda: NegativeBinomialPmf(0.0, 1.0, 5), "shape"),
+        (lambda: NegativeBinomialPmf(1.0, [1.0, math.nan], 5), "odds"),
+        (lambda: NegativeBinomialPmf(1.0, 1.0, -1), "n_max"),
+        (lambda: NegativeBinomialCutoff(1.0, math.inf), "odds"),
+        (lambda: NegativeBinomialCutoff(1e-6, 1e11), "odds.*too heavy"),
     ],
 )
 def test_bad_input_names_the_field(make, field):

@@ -296,11 +296,28 @@ class RateBelief:
         return NegativeBinomialPmf(self.shape, np.asarray(exposure, dtype=float) / self.rate, n_max)
 
 
+def _CheckArray(name: str, value, *, nonnegative: bool, what: str) -> np.ndarray:
+    x = np.asarray(value, dtype=float)
+    bad = ~np.isfinite(x) | ((x < 0.0) if nonnegative else False)
+    if np.any(bad):
+        rule = "finite and >= 0" if nonnegative else "finite"
+        raise ValueError(f"{name}: must be {rule} {what}, got {x[bad].ravel()[0]}")
+    return x
+
+
 def NegativeBinomialPmf(shape: float, odds, n_max: int) -> np.ndarray:
     """Γ(α + n)/(Γ(α) n!) p^α (1 − p)^n for n = 0..n_max, ``shape`` α > 0 and ``odds``
     θ = (1 − p)/p >= 0 (broadcast; τ/β for the predictive count), shape θ.shape + (n_max + 1,),
     in log space (module docstring)."""
-    theta = np.asarray(odds, dtype=float)[..., None]
+    shape = CheckNumber("shape", shape, 0.0, 1e12, "[-]", open_low=True)
+    n_max = CheckCount("n_max", n_max, 0, MAX_CUTOFF)
+    theta = _CheckArray("odds", odds, nonnegative=True, what="[-]")
+    return _NegativeBinomialPmf(shape, theta, n_max)
+
+
+def _NegativeBinomialPmf(shape: float, theta: np.ndarray, n_max: int) -> np.ndarray:
+    """:func:`NegativeBinomialPmf` of checked arguments."""
+    theta = theta[..., None]
     k = np.arange(n_max + 1)
     rising = np.concatenate([[0.0], np.cumsum(np.log(shape + np.arange(n_max)))])
     log_fact = np.concatenate([[0.0], np.cumsum(np.log(np.arange(1, n_max + 1)))])
@@ -313,20 +330,21 @@ def NegativeBinomialPmf(shape: float, odds, n_max: int) -> np.ndarray:
 
 def NegativeBinomialCutoff(shape: float, odds: float) -> int:
     """The smallest n_max whose bound P(n_max + 1)/(1 − ρ) (module docstring) on the mass beyond is
-    below 1e-12 for NB(``shape`` α, odds θ): sums to n_max are exact to 1e-12, from below."""
-    theta = float(odds)
-    if not theta > 0.0:
-        return 0
-    return _Cutoff(float(shape), theta)
+    below 1e-12 for NB(``shape`` α, odds θ): sums to n_max are exact to 1e-12, from below.
+    ValueError if that is beyond :data:`MAX_CUTOFF` counts."""
+    shape = CheckNumber("shape", shape, 0.0, 1e12, "[-]", open_low=True)
+    theta = CheckNumber("odds", odds, 0.0, 1e12, "[-]")
+    return _Cutoff(shape, theta) if theta > 0.0 else 0
 
 
 @functools.lru_cache(maxsize=1024)
 def _Cutoff(shape: float, theta: float) -> int:
+    """:func:`NegativeBinomialCutoff` for θ > 0 (kept per (α, θ): a flight asks the same ones)."""
     q = theta / (1.0 + theta)
     mean = shape * theta
-    stop = int(mean + 40.0 * math.sqrt(mean * (1.0 + theta)) + 100.0)
+    stop = int(min(mean + 40.0 * math.sqrt(mean * (1.0 + theta)) + 100.0, MAX_CUTOFF))
     while True:
-        log_pmf = np.log(np.maximum(NegativeBinomialPmf(shape, theta, stop), 1e-320))
+        log_pmf = np.log(np.maximum(_NegativeBinomialPmf(shape, np.array(theta), stop), 1e-320))
         n = np.arange(stop)
         ratio = np.maximum((shape + n + 1.0) / (n + 2.0) * q, q)
         with np.errstate(divide="ignore"):
@@ -387,7 +405,7 @@ class ExponentialSizeBelief:
         """Q̄_n(m) = P(NB(a, b/(b + m)) <= n − 1) for n = 0..n_max, the tail of the sum of n sizes
         of one world (sharing ϑ), shape margin.shape + (n_max + 1,)."""
         m = np.asarray(margin, dtype=float)
-        pmf = NegativeBinomialPmf(self.shape, np.maximum(m, 0.0) / self.scale, max(n_max - 1, 0))
+        pmf = _NegativeBinomialPmf(self.shape, np.maximum(m, 0.0) / self.scale, max(n_max - 1, 0))
         cdf = np.cumsum(pmf[..., :n_max], axis=-1)
         q = np.concatenate([np.zeros(m.shape + (1,)), cdf], axis=-1)
         return np.where(m[..., None] < 0.0, 1.0, np.minimum(q, 1.0))
@@ -440,15 +458,6 @@ class FaultBelief:
         if isinstance(self.sizes, ExponentialSizeBelief):
             return None
         return FaultModel(self.rate.mean, self.sizes)
-
-
-def _CheckArray(name: str, value, *, nonnegative: bool, what: str) -> np.ndarray:
-    x = np.asarray(value, dtype=float)
-    bad = ~np.isfinite(x) | ((x < 0.0) if nonnegative else False)
-    if np.any(bad):
-        rule = "finite and >= 0" if nonnegative else "finite"
-        raise ValueError(f"{name}: must be {rule} {what}, got {x[bad].ravel()[0]}")
-    return x
 
 
 def _CheckExpected(name: str, belief: RateBelief, exposure: np.ndarray) -> None:
@@ -508,7 +517,7 @@ def _FallbackFailureBounds(belief: FaultBelief, tau_p, m_p, tau_0, m_0, cells: i
     first = half * _GAUSS_WEIGHTS * alpha * x_p * np.exp(-(alpha + 1.0) * np.log1p(x_p * u))
     odds = (tau_0 / beta)[:, None, None] * (1.0 - u) / (1.0 + x_p * u)
     n_max = NegativeBinomialCutoff(alpha + 1.0, float(np.max(tau_0, initial=0.0)) / beta)
-    weight = np.einsum("pcq,pcqn->pcn", first, NegativeBinomialPmf(alpha + 1.0, odds, n_max))
+    weight = np.einsum("pcq,pcqn->pcn", first, _NegativeBinomialPmf(alpha + 1.0, odds, n_max))
     left = m_0[:, None] - (m_0 - m_p)[:, None] * edges
     q = _SizeTail(belief.sizes, n_max + 1, left)[..., 1:]
     q_low = np.minimum(q[:, :-1], q[:, 1:])
