@@ -36,11 +36,11 @@ negative binomial (:func:`NegativeBinomialPmf`)::
 
 mean ατ/β, variance ατ/β · (1 + τ/β): more spread than the Poisson of the same mean by the
 factor 1 + τ/β. It is computed in log space with the odds θ = (1 − p)/p = τ/β:
-log P(n) = Σ_(j<n) log(α + j) − log n! − α log1p(θ) + n (log θ − log1p(θ)), which stays exact for
-α up to 1e8 (the Poisson limit). :func:`NegativeBinomialCutoff` stops the sums where the mass
-beyond is below 1e-12: the ratio of successive terms r_j = (α + j)/(j + 1) · (1 − p) tends to
-1 − p monotonically, so past the mode the mass beyond n is at most P(n + 1)/(1 − ρ),
-ρ = max(r_(n+1), 1 − p) < 1.
+log P(n) = Σ_(j<n) log(α + j) − log n! − α log1p(θ) + n (log θ − log1p(θ)), which keeps its
+digits up to α = 1e11 (the Poisson limit: tested against the Poisson pmf to 1e-7 there).
+:func:`NegativeBinomialCutoff` stops the sums where the mass beyond is below 1e-12: the ratio
+of successive terms r_j = (α + j)/(j + 1) · (1 − p) tends to 1 − p monotonically, so wherever
+ρ = max(r_(n+1), 1 − p) < 1 the mass beyond n is at most P(n + 1)/(1 − ρ).
 
 **The sizes** (:func:`UpdateSizes`). An :class:`~eaplan_drake.planning.risk.EmpiricalDrops` list
 grows by each observed size (rounded to 0.001, so that the n-fold sums keep a bounded support).
@@ -119,7 +119,7 @@ no records                             ϑ ~ Gamma(2, 0.1)       14 ms        87 
 
 The cost is the sizes' tails at (n_max + 1) counts for every cell edge and the weights at
 n_max counts for every node: a wide belief (small α) has a long count tail (n_max = 66 for
-Gamma(0.5, 167 s) over 300 s, against 12 for the point rate), which the uniform's saturation
+Gamma(0.5, 167 s) over 300 s, against 14 for the point rate), which the uniform's saturation
 absorbs and the exponential's does not. One :func:`BeliefDropTail` costs 0.1–0.15 ms against
 0.02–0.04 ms for :func:`~eaplan_drake.planning.risk.TotalDropTail` (whose one-pair form is
 specialised).
