@@ -14,6 +14,7 @@ from eaplan_drake.planning.belief import (
     BeliefExcessRiskBounds,
     ExponentialSizeBelief,
     FaultBelief,
+    LearningSizes,
     NegativeBinomialCutoff,
     NegativeBinomialPmf,
     RateBelief,
@@ -277,6 +278,27 @@ def test_size_updates():
     assert belief.sizes.shape == 3.0 and belief.sizes.scale == pytest.approx(0.3, rel=1e-15)
     assert FaultBelief(RateBelief(2.0, 500.0), SIZES["uniform"]).PointModel() == FaultModel(
         0.004, SIZES["uniform"]
+    )
+
+
+def test_learning_sizes_are_never_lighter_than_the_point_model():
+    uniform = UniformDrops(0.0, 0.15)
+    listed = LearningSizes(uniform)
+    assert listed.values == (0.025, 0.05, 0.075, 0.1, 0.125, 0.15)
+    m = np.linspace(0.0, 0.6, 61)
+    assert np.all(listed.sum_tail(10, m) >= uniform.sum_tail(10, m) - 1e-12)
+    odd = LearningSizes(UniformDrops(0.013, 0.1), prior_sizes=7)
+    assert len(odd.values) == 7 and odd.values[-1] == 0.1
+    assert np.all(odd.sum_tail(8, m) >= UniformDrops(0.013, 0.1).sum_tail(8, m) - 1e-12)
+    scale = LearningSizes(ExponentialDrops(0.05), 3)
+    assert scale.shape == 3.0 and scale.scale == pytest.approx(0.15, rel=1e-15)
+    assert LearningSizes(listed) is listed
+    # heavier drops than believed: the list learns them, and the total drop's tail rises
+    belief = FaultBelief(RateBelief.FromRecords(), listed)
+    learned = belief.Update(300.0, [0.2, 0.22])
+    assert learned.sizes.values[-2:] == (0.2, 0.22)
+    assert BeliefDropTail(learned, 600.0, 0.3) > BeliefDropTail(
+        belief.Update(300.0, [0.1, 0.1]), 600.0, 0.3
     )
 
 

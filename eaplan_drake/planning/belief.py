@@ -58,6 +58,12 @@ known scale (:class:`~eaplan_drake.planning.risk.UniformDrops`,
 :class:`~eaplan_drake.planning.risk.ExponentialDrops`) do not learn: a uniform's bounds have no
 conjugate update that stays uniform, and a size outside them leaves the belief unchanged (a user
 who expects the world to be harsher than the bounds uses a list or an exponential belief).
+:func:`LearningSizes` turns them into models that learn, worth K = 6 sizes by default: U[a, b]
+into the K values a + (b − a) j/K (each the top of a K-th of the range, so never lighter than the
+uniform), Exp(μ) into Gamma(K, K μ). A list of K prior values grown by n observed ones is the
+predictive of a Dirichlet process of concentration K around the prior; its sizes are then taken
+as independent draws of that predictive (the process's draws within one world are exchangeable,
+not independent: a plug-in, exact as n grows).
 
 **The total drop** (:func:`BeliefDropTail`). The rate and the sizes' scale are independent a
 posteriori (the likelihood factors into the counts' and the sizes'), so with the size-sum tails
@@ -152,6 +158,7 @@ __all__ = [
     "BeliefExcessRiskBounds",
     "ExponentialSizeBelief",
     "FaultBelief",
+    "LearningSizes",
     "NegativeBinomialCutoff",
     "NegativeBinomialPmf",
     "RateBelief",
@@ -413,6 +420,21 @@ class ExponentialSizeBelief:
 
 Sizes = UniformDrops | ExponentialDrops | EmpiricalDrops | ExponentialSizeBelief
 """The size models a :class:`FaultBelief` holds."""
+
+
+def LearningSizes(sizes: Sizes, prior_sizes: int = 6) -> Sizes:
+    """The learning counterpart of a point size model, worth ``prior_sizes`` K observed sizes:
+    U[a, b] becomes the list a + (b − a) j/K, j = 1..K (rounded up to :data:`SIZE_RESOLUTION`),
+    which is stochastically larger than U[a, b], so its tails Q_n are never below the uniform's;
+    Exp(μ) becomes :meth:`ExponentialSizeBelief.FromMean` (μ, K); a list or a belief is kept."""
+    k = CheckCount("prior_sizes", prior_sizes, 1, 1000)
+    if isinstance(sizes, UniformDrops):
+        values = sizes.a + (sizes.b - sizes.a) * np.arange(1, k + 1) / k
+        steps = np.ceil(np.round(values / SIZE_RESOLUTION, 9)) * SIZE_RESOLUTION
+        return EmpiricalDrops(tuple(np.minimum(steps, 1.0).tolist()))
+    if isinstance(sizes, ExponentialDrops):
+        return ExponentialSizeBelief.FromMean(sizes.mean, k)
+    return sizes
 
 
 def UpdateSizes(sizes: Sizes, observed) -> Sizes:
