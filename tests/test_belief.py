@@ -83,6 +83,11 @@ def SampleWorlds(belief, horizon, worlds, rng):
         (lambda: ExponentialSizeBelief(2.0, 0.1).Update([0.1, math.nan]), "sizes"),
         (lambda: FaultBelief(0.003, SIZES["uniform"]), "FaultBelief.rate"),
         (lambda: FaultBelief(RateBelief(1.0, 1.0), "uniform"), "FaultBelief.sizes"),
+        (lambda: UpdateSizes(EmpiricalDrops([0.1]), [0.2, math.nan]), "observed"),
+        (
+            lambda: FaultBelief(RateBelief(1.0, 1.0), SIZES["uniform"]).Update(60.0, [-0.1]),
+            "observed",
+        ),
         (lambda: NegativeBinomialPmf(0.0, 1.0, 5), "shape"),
         (lambda: NegativeBinomialPmf(1.0, [1.0, math.nan], 5), "odds"),
         (lambda: NegativeBinomialPmf(1.0, 1.0, -1), "n_max"),

@@ -441,7 +441,7 @@ def UpdateSizes(sizes: Sizes, observed) -> Sizes:
     """The size model after ``observed`` drop sizes [-]: an empirical list grows by them (rounded to
     :data:`SIZE_RESOLUTION`, sizes in (0, 1]), an :class:`ExponentialSizeBelief` takes its
     conjugate update; uniform and known-scale exponential sizes stay as they are."""
-    x = np.atleast_1d(np.asarray(observed, dtype=float))
+    x = np.atleast_1d(_CheckArray("observed", observed, nonnegative=True, what="(SoC fraction)"))
     if isinstance(sizes, ExponentialSizeBelief):
         return sizes.Update(x)
     if isinstance(sizes, EmpiricalDrops) and x.size:
