@@ -468,3 +468,15 @@ def test_quiet_flight_lowers_the_excess_risk_and_a_drop_raises_it():
     heavy = BeliefExcessRisk(belief.Update(300.0, [0.2]), *args)
     assert quiet < now and heavy > quiet
     assert 0.0 < quiet < heavy < 1.0
+
+
+def test_excess_risk_vectorised_over_candidates_and_deterministic():
+    belief = FaultBelief(RateBelief(1.5, 400.0), SIZES["belief"])
+    tau_p = np.linspace(300.0, 600.0, 40)
+    m_p = np.linspace(0.2, -0.02, 40)
+    batch = BeliefExcessRisk(belief, tau_p, m_p, 300.0, 0.2)
+    assert batch.shape == (40,)
+    np.testing.assert_array_equal(batch, BeliefExcessRisk(belief, tau_p, m_p, 300.0, 0.2))
+    for i in [0, 7, 23, 39]:
+        single = BeliefExcessRisk(belief, tau_p[i], m_p[i], 300.0, 0.2)
+        assert batch[i] == pytest.approx(single, abs=1e-12)
