@@ -18,6 +18,7 @@ from eaplan_drake.planning.belief import (
     NegativeBinomialCutoff,
     NegativeBinomialPmf,
     RateBelief,
+    SaturatedSumTail,
     UpdateSizes,
 )
 from eaplan_drake.planning.risk import (
@@ -305,6 +306,17 @@ def test_learning_sizes_are_never_lighter_than_the_point_model():
     assert BeliefDropTail(learned, 600.0, 0.3) > BeliefDropTail(
         belief.Update(300.0, [0.1, 0.1]), 600.0, 0.3
     )
+
+
+@pytest.mark.parametrize("kind", sorted(SIZES))
+def test_saturated_size_tails_are_the_tails_from_below(kind):
+    m = np.linspace(-0.05, 0.5, 23)
+    full = SIZES[kind].sum_tail(120, m)
+    saturated = SaturatedSumTail(SIZES[kind], 120, m)
+    assert saturated.shape == full.shape == (23, 121)
+    assert np.all(saturated <= full + 1e-15) and np.all(saturated >= full - 1e-13)
+    with pytest.raises(ValueError, match="margin"):
+        SaturatedSumTail(SIZES[kind], 10, [0.1, math.nan])
 
 
 # The total drop under the belief.

@@ -162,6 +162,7 @@ __all__ = [
     "NegativeBinomialCutoff",
     "NegativeBinomialPmf",
     "RateBelief",
+    "SaturatedSumTail",
     "UpdateSizes",
 ]
 
@@ -491,10 +492,12 @@ def _CheckExpected(name: str, belief: RateBelief, exposure: np.ndarray) -> None:
         )
 
 
-def _SizeTail(sizes: Sizes, n_max: int, margin) -> np.ndarray:
+def SaturatedSumTail(sizes: Sizes, n_max: int, margin) -> np.ndarray:
     """``sizes.sum_tail(n_max, margin)``, levels past the first one within :data:`SATURATED` of 1 at
     every margin (checked at 16, 32, 64, … levels) taken equal to it: Q_n rises with n, so this is
-    from below, by at most SATURATED."""
+    from below, by at most SATURATED. ``margin`` m [-] broadcasts; shape m.shape + (n_max + 1,)."""
+    n_max = CheckCount("n_max", n_max, 0, MAX_CUTOFF)
+    margin = _CheckArray("margin", margin, nonnegative=False, what="(SoC fraction)")
     level = min(n_max, 16)
     while True:
         q = sizes.sum_tail(level, margin)
@@ -517,7 +520,7 @@ def BeliefDropTail(belief: FaultBelief, exposure, margin):
         belief.rate.shape, float(np.max(tau, initial=0.0)) / belief.rate.rate
     )
     pmf = belief.rate.CountPmf(tau, n_max)
-    tail = np.sum(pmf * _SizeTail(belief.sizes, n_max, m), axis=-1)
+    tail = np.sum(pmf * SaturatedSumTail(belief.sizes, n_max, m), axis=-1)
     out = np.where(m < 0.0, 1.0, np.clip(tail, 0.0, 1.0))
     return float(out) if out.ndim == 0 else out
 
@@ -541,7 +544,7 @@ def _FallbackFailureBounds(belief: FaultBelief, tau_p, m_p, tau_0, m_0, cells: i
     n_max = NegativeBinomialCutoff(alpha + 1.0, float(np.max(tau_0, initial=0.0)) / beta)
     weight = np.einsum("pcq,pcqn->pcn", first, _NegativeBinomialPmf(alpha + 1.0, odds, n_max))
     left = m_0[:, None] - (m_0 - m_p)[:, None] * edges
-    q = _SizeTail(belief.sizes, n_max + 1, left)[..., 1:]
+    q = SaturatedSumTail(belief.sizes, n_max + 1, left)[..., 1:]
     q_low = np.minimum(q[:, :-1], q[:, 1:])
     q_high = np.maximum(q[:, :-1], q[:, 1:])
     none = np.exp(-alpha * np.log1p(tau_p / beta)) * (m_p < 0.0)
