@@ -202,6 +202,11 @@ BAD_FILES = [
     ("i.plan", json.dumps({"fileType": "Plan", "mission": {"items": []}}), "no survey polygon"),
     ("j.plan", json.dumps({"fileType": "Mission"}), "not a QGroundControl plan"),
     ("k.shp", "", r"unknown field format '\.shp'"),
+    (
+        "l.geojson",
+        Poly([[str(LON0), str(LAT0)], [LON0 + 1e-3, LAT0], [LON0, LAT0 + 1e-3]]),
+        r"position 0: needs two numbers, got \['",
+    ),
 ]
 
 

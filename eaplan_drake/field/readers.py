@@ -115,9 +115,15 @@ def _CleanRing(ring, where: str, what: str) -> tuple[np.ndarray, int]:
     """(k, 2) float ring without the closing vertex and repeated consecutive vertices, and the
     number of vertices dropped."""
     try:
-        points = np.array([[float(c) for c in p[:2]] for p in ring], dtype=float)
-    except (TypeError, ValueError, IndexError):
+        pairs = [p[:2] for p in ring]
+    except (TypeError, IndexError):
         raise _Err(where, f"{what}: every position needs two numbers") from None
+    for i, pair in enumerate(pairs):  # RFC 7946: positions are numbers, never strings
+        if len(pair) < 2 or not all(
+            isinstance(c, int | float) and not isinstance(c, bool) for c in pair
+        ):
+            raise _Err(where, f"{what}: position {i}: needs two numbers, got {pair!r}")
+    points = np.array(pairs, dtype=float).reshape(-1, 2)
     if points.ndim != 2 or points.shape[0] == 0:
         raise _Err(where, f"{what}: no positions")
     if not np.all(np.isfinite(points)):
