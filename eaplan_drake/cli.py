@@ -243,48 +243,41 @@ def _StudyReport(args) -> int:
 def _Fit(args) -> int:
     from eaplan_drake.files import AtomicWrite
     from eaplan_drake.logfit.fit import FRAGMENT_ORDERS, FitPowerLog, PlotLogFit
-    from eaplan_drake.logfit.powerlog import PowerLogError, ReadPeriodLog
+    from eaplan_drake.logfit.powerlog import ReadPeriodLog
     from eaplan_drake.logfit.readers import ReadAnyPowerLog
     from eaplan_drake.logfit.result import NOISE_CRITERIA_TEXT, SCENARIO_MAX_ORDER
     from eaplan_drake.logfit.scores import FormatScores
 
     if args.period is not None and args.period_log:
-        print("eaplan-drake fit: give either --period or --period-log, not both", file=sys.stderr)
-        return 2
-    try:
-        period_log = (
-            ReadPeriodLog(args.period_log, args.period_log_step) if args.period_log else None
-        )
-        log = ReadAnyPowerLog(
-            args.log,
-            args.reader,
-            time_column=args.time_column,
-            power_column=args.power_column,
-            voltage_column=args.voltage_column,
-            current_column=args.current_column,
-            time_scale=args.time_scale,
-            time_step=args.time_step,
-        )
-        orders = FRAGMENT_ORDERS
-        if args.orders:
-            cells = [v.strip() for v in args.orders.split(",")]
-            if not all(v.isdigit() and int(v) <= SCENARIO_MAX_ORDER for v in cells):
-                raise ValueError(
-                    f"--orders: comma-separated integers in [0, {SCENARIO_MAX_ORDER}] (the "
-                    f"largest energy_model.order of a scenario), got {args.orders!r}"
-                )
-            orders = [int(v) for v in cells]
-        result = FitPowerLog(
-            log.times,
-            log.power,
-            args.period,
-            orders=orders,
-            aperiodic=not args.no_aperiodic,
-            period_log=period_log,
-        )
-    except (PowerLogError, ValueError) as e:
-        print(f"eaplan-drake fit: {e}", file=sys.stderr)
-        return 2
+        raise ValueError("--period, --period-log: give one of them, not both")
+    period_log = ReadPeriodLog(args.period_log, args.period_log_step) if args.period_log else None
+    log = ReadAnyPowerLog(
+        args.log,
+        args.reader,
+        time_column=args.time_column,
+        power_column=args.power_column,
+        voltage_column=args.voltage_column,
+        current_column=args.current_column,
+        time_scale=args.time_scale,
+        time_step=args.time_step,
+    )
+    orders = FRAGMENT_ORDERS
+    if args.orders:
+        cells = [v.strip() for v in args.orders.split(",")]
+        if not all(v.isdigit() and int(v) <= SCENARIO_MAX_ORDER for v in cells):
+            raise ValueError(
+                f"--orders: comma-separated integers in [0, {SCENARIO_MAX_ORDER}] (the "
+                f"largest energy_model.order of a scenario), got {args.orders!r}"
+            )
+        orders = [int(v) for v in cells]
+    result = FitPowerLog(
+        log.times,
+        log.power,
+        args.period,
+        orders=orders,
+        aperiodic=not args.no_aperiodic,
+        period_log=period_log,
+    )
     fit = result.fit
     print(f"log             {log.source}")
     print(

@@ -20,7 +20,14 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["AtomicWrite", "JsonSafe", "ReadTextFile", "ResultDirectory", "StrictJson"]
+__all__ = [
+    "AtomicWrite",
+    "JsonSafe",
+    "MissingFile",
+    "ReadTextFile",
+    "ResultDirectory",
+    "StrictJson",
+]
 
 
 def StrictJson(value) -> str:
@@ -142,6 +149,17 @@ def JsonSafe(value):
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
+
+
+def MissingFile(path: Path, what: str = "file") -> str:
+    """Why ``path`` is not a readable ``what`` ("no such file", "a folder, not a file"), or ""
+    when it is a file: the one-line reason a command gives."""
+    path = Path(path)
+    if path.is_file():
+        return ""
+    if path.is_dir():
+        return f"a folder, not a {what}"
+    return f"no such {what}"
 
 
 def ReadTextFile(path: Path, max_bytes: int, error: type) -> str:

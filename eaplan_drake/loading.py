@@ -28,7 +28,7 @@ from pathlib import Path
 import yaml
 
 from eaplan_drake.errors import ScenarioError
-from eaplan_drake.files import ReadTextFile
+from eaplan_drake.files import MissingFile, ReadTextFile
 from eaplan_drake.packaged import PACKAGED_FIELDS, PACKAGED_PLANS, PACKAGED_TABLES
 from eaplan_drake.params import Scenario
 from eaplan_drake.params.walk import _Dataclasses, _Hints, _UnknownKeyMessage, _Walk
@@ -62,8 +62,8 @@ def LoadScenario(
         raise ScenarioError("LoadScenario: give exactly one of filename= or data=")
     if filename is not None:
         path = Path(filename)
-        if not path.is_file():
-            raise ScenarioError(f"{path}: no such scenario file")
+        if MissingFile(path, "scenario file"):
+            raise ScenarioError(f"{path}: {MissingFile(path, 'scenario file')}")
         data = ReadTextFile(path, MAX_SCENARIO_BYTES, ScenarioError)
         scenario = _LoadLayer(data, Scenario(), f"{path}: ", source=str(path))
         return LayerScenario(ResolveFilePaths(scenario, path.parent), overrides)

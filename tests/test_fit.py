@@ -262,7 +262,7 @@ def test_read_columns_by_option_and_clear_errors(tmp_path):
     empty.write_text("\n\n")
     with pytest.raises(PowerLogError, match="empty file"):
         ReadPowerLog(empty)
-    with pytest.raises(PowerLogError, match="cannot read"):
+    with pytest.raises(PowerLogError, match="missing.csv: no such file"):
         ReadPowerLog(tmp_path / "missing.csv")
 
 
@@ -300,7 +300,7 @@ def test_cli_fit_bad_file_is_one_line(tmp_path, capsys):
     bad.write_text("time,power\n0,1\n1,oops\n")
     assert main(["fit", str(bad), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"eaplan-drake fit: {bad}:3:3: not a number: 'oops'"]
+    assert err == [f"eaplan-drake: input error: {bad}:3:3: not a number: 'oops'"]
     assert not (tmp_path / "o").exists()
     noise = tmp_path / "noise.csv"
     rng = np.random.default_rng(0)
@@ -489,14 +489,14 @@ def test_cli_fit_bad_period_log_is_one_line(tmp_path, capsys):
     out = str(tmp_path / "o")
     assert main(["fit", str(log), "--period-log", str(periods), "--out", out]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith(f"eaplan-drake fit: {periods}:2"), err
+    assert len(err) == 1 and err[0].startswith(f"eaplan-drake: input error: {periods}:2"), err
     assert main(["fit", str(log), "--period-log", str(tmp_path / "none.csv"), "--out", out]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "none.csv: cannot read" in err[0], err
+    assert len(err) == 1 and "none.csv: no such file" in err[0], err
     periods.write_text("0,46\n")
     assert main(["fit", str(log), "--period", "46", "--period-log", str(periods)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["eaplan-drake fit: give either --period or --period-log, not both"]
+    assert err == ["eaplan-drake: input error: --period, --period-log: give one of them, not both"]
     assert not (tmp_path / "o").exists()
 
 
@@ -568,7 +568,9 @@ def test_a_log_without_header_needs_its_columns_named(tmp_path, capsys):
     assert ReadPowerLog(f, time_step=0.25, power_column=2).times[4] == 1.0
     assert main(["fit", str(f), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith(f"eaplan-drake fit: {f}: no header and 3 columns")
+    assert len(err) == 1 and err[0].startswith(
+        f"eaplan-drake: input error: {f}: no header and 3 columns"
+    )
     assert not (tmp_path / "o").exists()
 
 
@@ -584,7 +586,7 @@ def test_a_log_too_short_for_its_period_is_one_line(tmp_path, capsys):
     assert main(["fit", str(log), "--period", "150", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [
-        "eaplan-drake fit: power log: 800 samples at 0.5 s (400 s) cover 2.67 periods of "
+        "eaplan-drake: input error: power log: 800 samples at 0.5 s (400 s) cover 2.67 periods of "
         "T = 150 s (given); fit needs 858 samples (2.86 periods: it fits on the first half and "
         "scores up to T ahead on the second); record longer or check the period"
     ]
@@ -639,7 +641,7 @@ def test_fit_orders_stay_within_what_a_scenario_accepts(tmp_path, capsys):
     for orders in ("2,24", "x", "-1"):
         assert main(["fit", str(log), "--orders", orders, "--out", str(tmp_path / "o")]) == 2
         assert capsys.readouterr().err.strip().splitlines() == [
-            "eaplan-drake fit: --orders: comma-separated integers in [0, 20] (the largest "
+            "eaplan-drake: input error: --orders: comma-separated integers in [0, 20] (the largest "
             f"energy_model.order of a scenario), got {orders!r}"
         ]
     assert not (tmp_path / "o").exists()

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
+from eaplan_drake.files import MissingFile
 from eaplan_drake.packaged import PACKAGED_TABLES
 
 __all__ = [
@@ -320,9 +321,9 @@ def LoadComputationTable(name_or_path: str | Path) -> ComputationTable:
     (:data:`~eaplan_drake.packaged.PACKAGED_TABLES`) or a CSV path."""
     key = str(name_or_path)
     path = PACKAGED_TABLES.get(key, Path(key))
-    if not path.is_file():
+    if MissingFile(path):
         raise ComputationTableError(
-            f"computation table {key!r}: no such file (packaged names: "
+            f"computation table {key!r}: {MissingFile(path)} (packaged names: "
             f"{', '.join(sorted(PACKAGED_TABLES))})"
         )
     size = path.stat().st_size

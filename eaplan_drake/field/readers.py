@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.field.geodesy import LocalFrame, Require
-from eaplan_drake.files import ReadTextFile
+from eaplan_drake.files import MissingFile, ReadTextFile
 
 __all__ = [
     "FIELD_SUFFIXES",
@@ -281,8 +281,8 @@ def ReadFieldRings(path, *, index: int | None = None):
         raise FieldError(
             f"{path}: unknown field format {path.suffix!r} (allowed: {', '.join(FIELD_SUFFIXES)})"
         )
-    if not path.is_file():
-        raise FieldError(f"{path}: no such file")
+    if MissingFile(path):
+        raise FieldError(f"{path}: {MissingFile(path)}")
     text = ReadTextFile(path, MAX_FIELD_BYTES, FieldError)
     if kind == "kml":
         polygons = _KmlPolygons(path, text)

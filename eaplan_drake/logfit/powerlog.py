@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from eaplan_drake.files import MissingFile
+
 __all__ = [
     "AUTHORS_CONTROL_STEP",
     "PAPARAZZI_TIME_STEP",
@@ -132,6 +134,8 @@ def _Parse(path: Path, lines: list[str], first: int, columns: int) -> np.ndarray
 
 def _ReadLines(path: Path) -> tuple[list[str], int]:
     """The lines of ``path`` and the index of its first non-blank one."""
+    if MissingFile(path):
+        raise PowerLogError(f"{path}: {MissingFile(path)}")
     try:
         lines = path.read_text(encoding="utf-8-sig").splitlines()
     except (OSError, UnicodeDecodeError) as e:

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from eaplan_drake.errors import MissingExtraError
+from eaplan_drake.files import MissingFile
 from eaplan_drake.logfit.powerlog import PowerLog, PowerLogError
 
 __all__ = ["ULOG_TOPIC", "ReadULog"]
@@ -50,8 +51,8 @@ def ReadULog(path, *, topic: str = ULOG_TOPIC, instance: int | None = None, **op
     if given:
         flags = ", ".join("--" + k.replace("_", "-") for k in given)
         raise PowerLogError(f"{path}: {flags}: for CSV logs only, not for a ULog")
-    if not path.is_file():
-        raise PowerLogError(f"{path}: no such file")
+    if MissingFile(path):
+        raise PowerLogError(f"{path}: {MissingFile(path)}")
     ulog = _Load(path, [topic])
     datasets = [d for d in ulog.data_list if d.name == topic]
     if not datasets:

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 from eaplan_drake.errors import ScenarioError
-from eaplan_drake.files import ReadTextFile
+from eaplan_drake.files import MissingFile, ReadTextFile
 from eaplan_drake.loading import MAX_SCENARIO_BYTES, YamlData
 from eaplan_drake.params import MAX_FAULTS, FaultModelParams
 from eaplan_drake.rates import DEFAULT_STUDY_RATES, RATE_PRESETS
@@ -143,8 +143,8 @@ def LoadStudy(filename: str | Path) -> tuple[Study, Path]:
     """The :class:`Study` of a YAML file and the file's directory. ScenarioError (one line
     naming the file and the key) on bad input."""
     path = Path(filename)
-    if not path.is_file():
-        raise ScenarioError(f"{path}: no such study file")
+    if MissingFile(path, "study file"):
+        raise ScenarioError(f"{path}: {MissingFile(path, 'study file')}")
     raw = YamlData(ReadTextFile(path, MAX_SCENARIO_BYTES, ScenarioError), str(path))
     if not isinstance(raw, dict):
         raise ScenarioError(f"{path}: a study is a mapping of keys")
