@@ -323,6 +323,12 @@ def test_non_finite_power_is_an_error_not_a_nan():
         simulator.AdvanceTo(0.1)
 
 
+def test_a_negative_power_is_an_error_not_a_charge():
+    battery, simulator, context = MakeDiagram(Reference(), -1e6)
+    with pytest.raises(RuntimeError, match=r"input 'power' must be >= 0 W \(a load\), got -1e\+06"):
+        simulator.AdvanceTo(0.1)
+
+
 @pytest.mark.parametrize(
     "field, value, message",
     [

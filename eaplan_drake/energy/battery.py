@@ -317,6 +317,11 @@ class Battery(LeafSystem):
             raise RuntimeError(
                 f"Battery: input 'power' is not finite ({y}) at t = {context.get_time()}"
             )
+        if y < 0.0:  # the pack is drained, never charged, in flight
+            raise RuntimeError(
+                f"Battery: input 'power' must be >= 0 W (a load), got {y:g} W at t = "
+                f"{context.get_time()}"
+            )
         return y
 
     def _Update(self, context, discrete_state):

@@ -64,11 +64,17 @@ def _UnknownFieldMessage(cls, name: str) -> str:
     )
 
 
+MAX_SHOWN_KEY = 40
+"""The most characters of an unknown key a message repeats (``fit`` cuts its cells alike)."""
+
+
 def _UnknownKeyMessage(cls, name, full: str) -> str:
     """One line for the unknown key ``full`` (last part ``name``) of a ``cls`` in YAML."""
     known = ", ".join(sorted(_FieldNames(cls)))
     note = _RemovedFieldNote(cls, name)
     close = _Suggestion(cls, name).strip(" ()")
+    if len(full) > MAX_SHOWN_KEY:  # a file that is not a scenario: never echo a whole line
+        full = full[:MAX_SHOWN_KEY] + "…"
     return (
         f"{full}: unknown key (known keys here: {known})"
         + (f"; {close}" if close else "")
