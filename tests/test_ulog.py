@@ -144,3 +144,20 @@ def test_without_pyulog_a_ulog_is_one_line_naming_the_extra(tmp_path, monkeypatc
         MissingExtraError, match=r"needs pyulog: pip install 'eaplan-drake\[ulog\]'"
     ):
         ReadULog(path)
+
+
+def test_a_ulog_cut_inside_a_message_is_read_up_to_the_cut_and_says_so(tmp_path):
+    from eaplan_drake.logfit.ulog import ULogCut
+
+    rows = BatteryRows()[3]
+    whole = WriteULog(tmp_path / "whole.ulg", {"battery_status": (BATTERY_FIELDS, rows)})
+    data = whole.read_bytes()
+    assert ULogCut(whole) is None
+    assert "truncated" not in ReadULog(whole).source
+    cut = tmp_path / "cut.ulg"
+    cut.write_bytes(data[: len(data) // 2 + 3])
+    at = ULogCut(cut)
+    assert at is not None and at < len(data) // 2 + 3
+    log = ReadULog(cut)
+    assert f"truncated (it ends inside the message at byte {at})" in log.source
+    assert 16 <= log.times.size < len(rows)

@@ -8,9 +8,12 @@ the one with the most samples is read unless ``instance`` says which.
 
 Needs pyulog (``pip install 'eaplan-drake[ulog]'``). A file that is not a ULog, or a ULog without
 the topic (the message lists the topics it has), is one
-:class:`~eaplan_drake.logfit.powerlog.PowerLogError` line.
+:class:`~eaplan_drake.logfit.powerlog.PowerLogError` line. A file cut inside a message (a log
+whose writer stopped mid-write) is read up to the cut and says so in its source
+(:func:`ULogCut`): pyulog itself reads it silently.
 """
 
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -19,13 +22,33 @@ from eaplan_drake.errors import MissingExtraError
 from eaplan_drake.files import MissingFile
 from eaplan_drake.logfit.powerlog import PowerLog, PowerLogError
 
-__all__ = ["ULOG_TOPIC", "ReadULog"]
+__all__ = ["ULOG_TOPIC", "ReadULog", "ULogCut"]
 
 ULOG_TOPIC = "battery_status"
 """The topic read by default."""
 _VOLTAGE = ("voltage_v", "voltage_filtered_v")
 _CURRENT = ("current_a", "current_filtered_a")
 _MIN_SAMPLES = 16
+
+
+_HEADER = 16
+"""The ULog file header [bytes] (magic, version, timestamp); messages follow, each a uint16
+size, a uint8 type and ``size`` bytes."""
+
+
+def ULogCut(path) -> int | None:
+    """The byte offset of the message the file ``path`` ends inside (its header or its payload
+    cut short), or None when the file ends at a message boundary."""
+    data = Path(path).read_bytes()
+    at = _HEADER
+    while at < len(data):
+        if at + 3 > len(data):
+            return at
+        (size,) = struct.unpack_from("<H", data, at)
+        if at + 3 + size > len(data):
+            return at
+        at += 3 + size
+    return None
 
 
 def _Load(path: Path, topics):
@@ -92,4 +115,9 @@ def ReadULog(path, *, topic: str = ULOG_TOPIC, instance: int | None = None, **op
         f"{path.name} (ULog {topic}[{data.multi_id}]): time = timestamp (× 1e-06 s), "
         f"power = {voltage} × {current}"
     )
+    cut = ULogCut(path)
+    if cut is not None:
+        source += (
+            f"; the file is truncated (it ends inside the message at byte {cut}): read up to it"
+        )
     return PowerLog(times=t - t[0], power=y, source=source)
