@@ -96,6 +96,11 @@ def AtomicWrite(path: str | Path, write: Callable, binary: bool) -> Path:
             os.fsync(f.fileno())
         os.chmod(tmp, 0o666 & ~_Umask())  # mkstemp makes 0600; the result is a normal file
         os.replace(tmp, path)
+    except OSError as e:
+        Path(tmp).unlink(missing_ok=True)
+        if e.filename is None:  # a full disk says nothing of where: name the file
+            raise OSError(e.errno, e.strerror or str(e), str(path)) from None
+        raise
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

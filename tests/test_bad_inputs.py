@@ -705,3 +705,20 @@ def test_cli_unusable_out_is_one_line_before_the_flight(tmp_path, capsys):
     assert err.strip().splitlines() == [
         f"eaplan-drake: file error: {blocker / 'sub'}: Not a directory"
     ]
+
+
+def test_a_full_disk_names_the_file_it_could_not_write(tmp_path):
+    """ENOSPC from a write carries no file name: the error names the file, and nothing of it is
+    left behind."""
+    import errno
+
+    from eaplan_drake.files import AtomicWrite
+
+    def full(f):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    target = tmp_path / "summary.json"
+    with pytest.raises(OSError) as info:
+        AtomicWrite(target, full, binary=False)
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(target)
+    assert list(tmp_path.iterdir()) == []
