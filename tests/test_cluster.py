@@ -223,3 +223,17 @@ def test_a_worker_lost_for_good_ends_the_study(mini, tmp_path):
     )
     assert f"no Dask worker connected to {address}; waiting up to 2 s ..." in done.stderr
     assert [r["policy"] for r in _Rows(out)] == ["lowest"]
+
+
+def test_distributed_prints_only_critical_records_while_a_study_runs(capsys):
+    import logging
+
+    from eaplan_drake.studies.cluster import QuietDistributed
+
+    client_logger = logging.getLogger("distributed.client")
+    before = (logging.getLogger("distributed").level, client_logger.level)
+    with QuietDistributed():
+        assert client_logger.level == logging.CRITICAL
+        client_logger.error("Failed to reconnect to scheduler")  # what a dead scheduler logs
+    assert (logging.getLogger("distributed").level, client_logger.level) == before
+    assert "Failed to reconnect" not in capsys.readouterr().err

@@ -18,11 +18,21 @@ for ``wait`` seconds (at the start or later), or when the scheduler is lost; the
 then cancelled, and their flights have no row (a re-run flies them).
 """
 
+import contextlib
+import logging
 import math
 import time
 import uuid
 
-__all__ = ["MAX_WAIT", "TASK_RETRIES", "WAIT_FOR_WORKERS", "ClusterError", "MapOnDask", "Wait"]
+__all__ = [
+    "MAX_WAIT",
+    "TASK_RETRIES",
+    "WAIT_FOR_WORKERS",
+    "ClusterError",
+    "MapOnDask",
+    "QuietDistributed",
+    "Wait",
+]
 
 WAIT_FOR_WORKERS = 60.0
 """Default time [s] to wait for a scheduler and a worker (``sweep --wait-for-workers``)."""
@@ -108,7 +118,17 @@ def MapOnDask(
         on_result, on_failure: called in the calling thread as tasks end (in any order).
         wait: [s] for the scheduler to answer and for a worker to be connected.
         say: prints a progress line (waiting for a worker).
+
+    While it runs, ``distributed``'s own loggers print nothing below CRITICAL
+    (:func:`QuietDistributed`): a scheduler or worker that dies ends in this package's one
+    line (:class:`ClusterError` or an error row), not in the client's tracebacks.
     """
+
+    with QuietDistributed():
+        _MapOnDask(scheduler, func, arguments, names, on_result, on_failure, wait, say)
+
+
+def _MapOnDask(scheduler, func, arguments, names, on_result, on_failure, wait, say) -> None:
     from distributed import as_completed
 
     wait = Wait(wait)
@@ -150,6 +170,25 @@ def MapOnDask(
                 raise ClusterError(f"no Dask worker connected to {address} for {wait:g} s")
     finally:
         _Release(client, pending, own, wait)
+
+
+@contextlib.contextmanager
+def QuietDistributed():
+    """Within the block, every ``distributed`` logger (the package's and its modules', each with
+    a level of its own) prints only CRITICAL records; their levels are restored after it."""
+    loggers = [logging.getLogger("distributed")] + [
+        logging.getLogger(name)
+        for name in list(logging.root.manager.loggerDict)
+        if name.startswith("distributed.")
+    ]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
 
 
 def _WaitForWorker(client, address: str, wait: float, say) -> None:
