@@ -215,7 +215,7 @@ def test_the_point_of_no_return_is_the_first_leg_end_beyond_reach_of_home():
     route = MakeRoute(Decompose(rect, 0.0), 25.0, 62.45)
     p = RoutePrediction(route, scenario, [2.0])
     assert PointOfNoReturn(route, p, scenario) is None  # 1.6 × the reference battery: plenty
-    scenario.battery.capacity = 2.0
+    scenario.battery.capacity = 0.3  # Ah at 14.8 V: 4.4 Wh
     p = RoutePrediction(route, scenario, [2.0])
     pnr = PointOfNoReturn(route, p, scenario)
     assert pnr is not None and 0 < pnr["leg"] < len(route.legs)
