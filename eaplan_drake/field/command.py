@@ -1,20 +1,95 @@
 """The ``eaplan-drake plan FIELD`` command: its arguments and what it runs (the command line's
 other commands are in :mod:`eaplan_drake.cli`). Imports the ``[field]`` extra only when run."""
 
+import json
+import math
+import sys
 from pathlib import Path
 
 from eaplan_drake.loading import OverrideFromAssignment
 
-__all__ = ["AddPlanParser", "RunPlanCommand"]
+__all__ = ["DOES_NOT_FIT", "AddPlanParser", "RunPlanCommand"]
+
+DOES_NOT_FIT = 4
+"""Exit status of ``plan`` when the lowest plan ends below the reserve."""
 
 
-def _ParseOrigin(text: str):
+def _ParseLonLat(text: str, option: str):
     cells = text.split(",")
     try:
         lon, lat = (float(c) for c in cells)
     except ValueError:
-        raise ValueError(f"--origin: expected LON,LAT in degrees, got {text!r}") from None
+        raise ValueError(f"{option}: expected LON,LAT in degrees, got {text!r}") from None
+    if not (abs(lon) <= 180.0 and abs(lat) <= 90.0):
+        raise ValueError(
+            f"{option}: expected LON in [-180, 180] and LAT in [-90, 90], got {text!r}"
+        )
     return lon, lat
+
+
+def PlanHomeAltitude(path) -> float | None:
+    """The home altitude [m AMSL] of a QGroundControl ``.plan`` (``mission.plannedHomePosition``
+    [φ, λ, h]), or None for another file or a plan without one."""
+    path = Path(path)
+    if path.suffix != ".plan":
+        return None
+    try:
+        home = json.loads(path.read_text(encoding="utf-8"))["mission"]["plannedHomePosition"]
+        alt = float(home[2])
+    except (OSError, ValueError, KeyError, IndexError, TypeError):
+        return None
+    return alt if math.isfinite(alt) else None
+
+
+def _MissionEnds(args, scenario, field, route):
+    """The :class:`~eaplan_drake.field.missions.MissionEnds` of the command line and scenario,
+    and where the ground altitude came from."""
+    import numpy as np
+
+    from eaplan_drake.field.missions import MissionEnds
+
+    coverage = scenario.coverage
+    if args.ground_alt is not None:
+        ground, source = args.ground_alt, "--ground-alt"
+    elif coverage.ground_alt != 0.0:
+        ground, source = coverage.ground_alt, "coverage.ground_alt"
+    elif (from_plan := PlanHomeAltitude(args.field)) is not None:
+        ground, source = from_plan, "the plan's home"
+    else:
+        ground, source = 0.0, None
+    lonlat = _ParseLonLat(args.home, "--home") if args.home else coverage.home
+    home = None
+    if lonlat:
+        home = field.frame.ToLocal(np.array([lonlat], dtype=float))[0]
+    if args.home_vertex:
+        target = np.asarray(route.legs[0].start if home is None else home)
+        vertices = np.asarray(field.exterior)
+        home = vertices[int(np.argmin(np.linalg.norm(vertices - target, axis=1)))]
+    approach = None
+    wind = scenario.wind
+    if wind.speed > 0.0:
+        a = math.radians(wind.direction_deg)
+        approach = (math.cos(a), math.sin(a))  # downwind of home: the landing flies into the wind
+    end = args.end or coverage.mission_end
+    ends = MissionEnds(None, float(ground), end, approach).Check()
+    home = ends.Home(route) if home is None else home
+    return MissionEnds((float(home[0]), float(home[1])), float(ground), end, approach), source
+
+
+def _NotFitLine(summary: dict, scenario) -> str:
+    """The one line of a plan whose lowest plan ends below the reserve."""
+    e = summary["lowest_plan"]
+    battery = scenario.battery
+    usable = (e["initial_soc"] - e["reserve_soc"]) * battery.Energy()
+    drawn = (e["initial_soc"] - e["final_soc_unclamped"]) * battery.Energy()
+    r = e["reserve_reached"]
+    return (
+        f"the survey does not fit: its lowest plan draws {drawn / 3600.0:.2f} Wh, the pack "
+        f"gives {usable / 3600.0:.2f} Wh above the {e['reserve_soc']:.2f} reserve: "
+        f"{(drawn - usable) / 3600.0:.2f} Wh missing; the reserve is reached "
+        f"{100.0 * r['fraction']:.0f} % along the route; missions not written "
+        "(--write-missions writes them)"
+    )
 
 
 def RunPlanCommand(args) -> int:
@@ -25,6 +100,7 @@ def RunPlanCommand(args) -> int:
     Require("pyproj")
     from eaplan_drake.field.plan import (
         BestStaticPlan,
+        EndsSummary,
         FormatFieldPlan,
         LineSpacing,
         LowestPlanEnergy,
@@ -38,6 +114,8 @@ def RunPlanCommand(args) -> int:
 
     if not (args.altitude > 0.0 and args.altitude < 10_000.0):
         raise ValueError(f"--altitude: must be in (0, 10000) m above home, got {args.altitude!r}")
+    if args.ground_alt is not None and not abs(args.ground_alt) <= 9000.0:
+        raise ValueError(f"--ground-alt: must be in [-9000, 9000] m AMSL, got {args.ground_alt!r}")
     scenario = LoadNamedScenario(args.scenario, [OverrideFromAssignment(a) for a in args.set])
     coverage = scenario.coverage
     low, high = scenario.planner.path_parameter_bounds
@@ -45,7 +123,7 @@ def RunPlanCommand(args) -> int:
     if not (low <= c1 <= high):
         raise ValueError(f"--c1: must be in [{low:g}, {high:g}] m² (planner.path_parameter_bounds)")
     spacing = LineSpacing(coverage, c1)
-    origin = _ParseOrigin(args.origin) if args.origin else None
+    origin = _ParseLonLat(args.origin, "--origin") if args.origin else None
     field = ReadField(args.field, index=args.polygon, origin=origin, min_width=spacing)
     plan = MakeFieldPlan(
         field,
@@ -55,18 +133,32 @@ def RunPlanCommand(args) -> int:
         cells=coverage.field_cells,
         min_line_length=4.0 * coverage.trigger_radius,
     )
-    energy = LowestPlanEnergy(plan, scenario)
+    ends, ground_source = _MissionEnds(args, scenario, field, plan.route)
+    home = ends.Home(plan.route)
+    energy = LowestPlanEnergy(plan, scenario, home)
     summary = Summary(plan, energy)
     summary["lowest_plan_risk"] = LowestPlanRisk(energy, scenario)
-    summary["best_static_plan"] = BestStaticPlan(plan, scenario)
+    summary["best_static_plan"] = BestStaticPlan(plan, scenario, home=home)
     summary["scenario"] = scenario.name
     summary["path_parameter_c1"] = c1
+    summary["mission"] = EndsSummary(field, ends, args.altitude, ground_source)
+    fits = energy["final_soc"] >= energy["reserve_soc"]
     out = Path(args.out) / Path(args.field).stem
     written = SaveFieldPlan(
-        plan, out, summary=summary, altitude=args.altitude, cruise_speed=scenario.vehicle.airspeed
+        plan,
+        out,
+        summary=summary,
+        altitude=args.altitude,
+        cruise_speed=scenario.vehicle.airspeed,
+        ends=ends,
+        missions=fits or args.write_missions,
     )
     print(FormatFieldPlan(summary))
-    print(f"missions, figure and summary in {out} ({', '.join(p.name for p in written)})")
+    what = "missions, figure and summary" if fits or args.write_missions else "figure and summary"
+    print(f"{what} in {out} ({', '.join(p.name for p in written)})")
+    if not fits:
+        print(f"eaplan-drake: {_NotFitLine(summary, scenario)}", file=sys.stderr)
+        return DOES_NOT_FIT
     return 0
 
 
@@ -81,7 +173,10 @@ def AddPlanParser(sub) -> None:
         "boustrophedon cells for the sweep direction of the shortest route, print the plan "
         "(cells, direction, lines, path length, time and energy of the static lowest plan) and "
         "write DIR/<field>/: mission.plan (QGroundControl), mission.waypoints (WPL 110), "
-        "mission.xml (Paparazzi), plan.png and summary.json. Needs the [field] extra.",
+        "mission.xml (Paparazzi), plan.png and summary.json. Each mission takes off at home, "
+        "flies the survey and returns to launch or lands. A survey that does not fit the battery "
+        f"(the lowest plan ends below the reserve) exits with status {DOES_NOT_FIT} and writes no "
+        "mission unless --write-missions. Needs the [field] extra.",
     )
     p.add_argument("field", help="field file: .geojson, .json, .kml or .plan")
     p.add_argument("--out", default="plan", help="output directory (default: plan/)")
@@ -113,7 +208,44 @@ def AddPlanParser(sub) -> None:
         help="path parameter c1 [m²] that sets the line spacing 2 r1 − 2 r2(c1) (default: its "
         "lower bound, the static lowest plan; 0 gives coverage.swath_spacing)",
     )
+    _AddMissionArguments(p)
+    p.set_defaults(run=RunPlanCommand)
+
+
+def _AddMissionArguments(p) -> None:
+    """The ``plan`` arguments of the missions: altitudes, home, end, and whether to write them."""
     p.add_argument(
         "--altitude", type=float, default=50.0, help="flight altitude above home [m] (default 50)"
     )
-    p.set_defaults(run=RunPlanCommand)
+    p.add_argument(
+        "--ground-alt",
+        type=float,
+        default=None,
+        metavar="M",
+        help="altitude of the ground at home [m AMSL] (default: coverage.ground_alt, else a "
+        "QGroundControl plan's home altitude, else 0 with a note); MAVLink altitudes are above "
+        "home, Paparazzi's are AMSL",
+    )
+    p.add_argument(
+        "--home",
+        default="",
+        metavar="LON,LAT",
+        help="home, the launch point [deg] (default: coverage.home, else the first line's start)",
+    )
+    p.add_argument(
+        "--home-vertex",
+        action="store_true",
+        help="home at the field's vertex nearest to --home (or to the first line's start)",
+    )
+    p.add_argument(
+        "--end",
+        choices=("rtl", "land"),
+        default=None,
+        help="how the missions end: return to launch, or an approach into the wind and a landing "
+        "at home (default: coverage.mission_end, rtl)",
+    )
+    p.add_argument(
+        "--write-missions",
+        action="store_true",
+        help="write the missions even when the survey does not fit the battery",
+    )

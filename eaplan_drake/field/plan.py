@@ -25,12 +25,14 @@ import numpy as np
 
 from eaplan_drake.field.decompose import ChooseSweepDirection, Decompose, SweepChoice, SweepLines
 from eaplan_drake.field.readers import Field
-from eaplan_drake.field.route import MakeRoute, Route, RouteEnergy
+from eaplan_drake.field.route import Leg, MakeRoute, Route, RouteEnergy
 
 __all__ = [
     "BestStaticPlan",
+    "EndsSummary",
     "FieldPlan",
     "FormatFieldPlan",
+    "WithHomeLegs",
     "LineSpacing",
     "LowestPlanEnergy",
     "LowestPlanRisk",
@@ -114,10 +116,26 @@ def MakeFieldPlan(
     return best
 
 
+def WithHomeLegs(route: Route, home) -> Route:
+    """``route`` flown from and back to ``home`` [m]: a straight leg (kind ``home``) from home to
+    the route's start and one from its end back home (straight: a lower bound of the climb-out
+    and the return, without the turns onto and off the route); ``home`` None: ``route``."""
+    if home is None:
+        return route
+    home = tuple(float(v) for v in home)
+    first, last = route.legs[0].start, route.legs[-1].end
+    legs = [Leg("home", home, first, math.dist(home, first)), *route.legs]
+    legs.append(Leg("home", last, home, math.dist(last, home)))
+    return dc.replace(route, legs=tuple(leg for leg in legs if leg.length > 0.0))
+
+
 def RoutePrediction(route: Route, scenario, computation_parameters, *, table=None) -> dict:
     """Time [s], energy [J], mean power [W] and SoC of flying ``route`` in still air at the
     constant ``computation_parameters`` c2 with ``scenario``'s vehicle, computation table and
-    battery (see the module docstring); ``soc_after_leg`` is the SoC at the end of each leg.
+    battery (see the module docstring); ``soc_after_leg`` is the SoC at the end of each leg,
+    ``final_soc_unclamped`` the final SoC had the pack no bottom (below 0 when it empties), and
+    ``reserve_reached`` where the SoC reaches the reserve (leg, path length [m], fraction of the
+    route, time [s]) or None.
     ``table``: the scenario's computation table, if already loaded."""
     from eaplan_drake.energy.computation import LoadComputationTable
     from eaplan_drake.flight.plant import MotionPowerCoefficients
@@ -132,12 +150,21 @@ def RoutePrediction(route: Route, scenario, computation_parameters, *, table=Non
     time, energy, mean = RouteEnergy(route, vehicle.airspeed, coefficients, g)
     battery = BATTERY_MODELS.Make(scenario.battery.model, scenario.battery)
     soc = float(scenario.battery.initial_soc)
+    reserve = float(scenario.battery.reserve_soc)
     p0, p2 = coefficients
-    after = []
-    for leg in route.legs:
+    after, unclamped, flown, reached = [], soc, 0.0, None
+    for k, leg in enumerate(route.legs):
         rate = vehicle.airspeed / leg.radius if leg.radius > 0.0 else 0.0
-        soc = battery.SocAfter(soc, p0 + p2 * rate * rate + g, leg.length / vehicle.airspeed)
+        power, duration = p0 + p2 * rate * rate + g, leg.length / vehicle.airspeed
+        soc = battery.SocAfter(soc, power, duration)
         after.append(float(soc))
+        drop = -float(battery.SocRate(power)) * duration  # the SoC rate depends on the load only
+        if reached is None and unclamped - drop < reserve and drop > 0.0:
+            at = flown + leg.length * (unclamped - reserve) / drop
+            reached = {"leg": k, "path_m": at, "fraction": at / route.Length(), "time_s": None}
+            reached["time_s"] = at / vehicle.airspeed
+        unclamped -= drop
+        flown += leg.length
     return {
         "time": time,
         "energy": energy,
@@ -146,19 +173,24 @@ def RoutePrediction(route: Route, scenario, computation_parameters, *, table=Non
         "computation_parameters": c2,
         "initial_soc": float(scenario.battery.initial_soc),
         "final_soc": soc,
-        "reserve_soc": float(scenario.battery.reserve_soc),
+        "final_soc_unclamped": unclamped,
+        "reserve_soc": reserve,
+        "reserve_reached": reached,
         "soc_after_leg": after,
     }
 
 
-def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
+def LowestPlanEnergy(plan: FieldPlan, scenario, home=None) -> dict:
     """:func:`RoutePrediction` of ``plan``'s route at the table's lowest parameters c̲2: at
-    c̲1 the paper's static lowest plan, without wind and without the approach."""
+    c̲1 the paper's static lowest plan, without wind; from and back to ``home`` [m] when given
+    (:func:`WithHomeLegs`)."""
     from eaplan_drake.energy.computation import LoadComputationTable
 
     table = LoadComputationTable(scenario.computation.table)
-    prediction = RoutePrediction(plan.route, scenario, table.lower, table=table)
+    route = WithHomeLegs(plan.route, home)
+    prediction = RoutePrediction(route, scenario, table.lower, table=table)
     del prediction["soc_after_leg"]
+    prediction["home_legs_m"] = route.Length("home")
     return prediction
 
 
@@ -185,7 +217,7 @@ def PointOfNoReturn(route: Route, prediction: dict, scenario, home=None) -> dict
     return None
 
 
-def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
+def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11, home=None) -> dict:
     """The highest-quality static plan (c1, c2) that a stock autopilot could fly over ``plan``'s
     cells without the in-flight planner and still complete at the scenario's risk level: among
     ``grid_size`` values of c1 over ``planner.path_parameter_bounds`` (each with its own line
@@ -198,7 +230,8 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
     planner's definition, :mod:`eaplan_drake.planning.risk`): as τ ≥ τ_0 and m ≤ m_0 the lowest
     plan's failures are among the plan's, so it is P(S(τ) > m) − P(S(τ_0) > m_0) with S(τ) the
     total SoC drop in τ. Returns the plan's c1 [m²], c2, quality, prediction, margin, excess
-    risk, point of no return (:func:`PointOfNoReturn`) and how many grid plans were tried."""
+    risk, point of no return (:func:`PointOfNoReturn`) and how many grid plans were tried. With
+    ``home`` [m] every plan flies from and back to it (:func:`WithHomeLegs`)."""
     import itertools
 
     from eaplan_drake.energy.computation import LoadComputationTable
@@ -227,9 +260,10 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
             d, LineSpacing(coverage, c1), coverage.min_turning_radius,
             min_line_length=4.0 * coverage.trigger_radius,
         )  # fmt: skip
+        flown = WithHomeLegs(route, home)
         for c2 in itertools.product(*table.parameter_grids):
             tried += 1
-            p = RoutePrediction(route, scenario, c2, table=table)
+            p = RoutePrediction(flown, scenario, c2, table=table)
             margin = p["final_soc"] - reserve
             if lowest is None:  # c̲1, c̲2 come first
                 lowest = (p["time"], margin)
@@ -237,11 +271,11 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
             u2 = np.divide(np.asarray(c2) - lower, span, out=np.zeros_like(span), where=span > 0)
             quality = 0.5 * (c1 - lo) / (hi - lo) + 0.5 * float(np.mean(u2)) if hi > lo else 0.0
             if margin >= 0.0 and excess <= eps and (best is None or quality > best[0] + 1e-12):
-                best = (quality, float(c1), [float(v) for v in c2], route, p, margin, excess)
+                best = (quality, float(c1), [float(v) for v in c2], flown, p, margin, excess)
     if best is None:
         return {"feasible": False, "risk": eps, "plans_tried": tried}
     quality, c1, c2, route, p, margin, excess = best
-    pnr = PointOfNoReturn(route, p, scenario)
+    pnr = PointOfNoReturn(route, p, scenario, home)
     if pnr is not None:
         pnr["lon_lat"] = [float(v) for v in plan.field.frame.ToLonLat([pnr["position_m"]])[0]]
     prediction = {k: v for k, v in p.items() if k != "soc_after_leg"}
@@ -310,6 +344,78 @@ def Summary(plan: FieldPlan, energy: dict | None = None) -> dict:
     return out
 
 
+def EndsSummary(field: Field, ends, altitude: float, ground_source: str | None) -> dict:
+    """Home, altitudes and the end of the missions as a JSON-ready dict (``ends`` a
+    :class:`~eaplan_drake.field.missions.MissionEnds` with its home set; ``ground_source``: where
+    the ground altitude came from, None when nothing gave it)."""
+    lon, lat = (float(v) for v in field.frame.ToLonLat(np.array([ends.home]))[0])
+    return {
+        "home_lon_lat": [lon, lat],
+        "home_m": [float(v) for v in ends.home],
+        "altitude_above_home_m": float(altitude),
+        "ground_alt_amsl_m": float(ends.ground_alt),
+        "ground_alt_from": ground_source,
+        "end": ends.end,
+    }
+
+
+def _MissionLines(m: dict | None) -> list[str]:
+    """The ``home`` and ``altitudes`` lines of the summary's ``mission``."""
+    if m is None:
+        return []
+    lines = []
+    end = "return to launch" if m["end"] == "rtl" else "approach and landing at home"
+    lines.append(
+        f"home            lon {m['home_lon_lat'][0]:.6f}, lat {m['home_lon_lat'][1]:.6f}: "
+        f"takeoff, survey, {end}"
+    )
+    ground = (
+        f"ground {m['ground_alt_amsl_m']:g} m AMSL (from {m['ground_alt_from']})"
+        if m["ground_alt_from"]
+        else "ground assumed at 0 m AMSL: give --ground-alt (Paparazzi's altitudes are AMSL)"
+    )
+    lines.append(
+        f"altitudes       {m['altitude_above_home_m']:g} m above home "
+        f"({m['ground_alt_amsl_m'] + m['altitude_above_home_m']:g} m AMSL); {ground}"
+    )
+    return lines
+
+
+def _LowestPlanLines(e: dict | None) -> list[str]:
+    """The ``lowest plan``, ``battery`` and ``reserve at`` lines of the lowest plan."""
+    if e is None:
+        return []
+    lines = []
+    margin = e["final_soc"] - e["reserve_soc"]
+    lines += [
+        f"lowest plan     {e['time']:.0f} s ({e['time'] / 60:.1f} min) in still air"
+        + (f" with {e['home_legs_m']:.0f} m to and from home" if e.get("home_legs_m") else "")
+        + f", {e['energy'] / 1e3:.1f} kJ, mean {e['mean_power']:.1f} W (computation "
+        f"{e['computation_power']:.1f} W at c2 = "
+        f"{', '.join(f'{c:g}' for c in e['computation_parameters'])})",
+        f"battery         SoC {e['initial_soc']:.3f} -> "
+        + (
+            f"{e['final_soc']:.3f}"
+            if e.get("final_soc_unclamped", 0.0) >= 0.0
+            else f"empty ({e['final_soc_unclamped']:.3f} had it no bottom)"
+        )
+        + f" (reserve {e['reserve_soc']:.2f}: margin "
+        + (
+            f"{margin:+.3f})"
+            if margin >= 0.0
+            else f"{e['final_soc_unclamped'] - e['reserve_soc']:+.3f}: below the reserve, "
+            "the survey does not fit)"
+        ),
+    ]
+    r = e.get("reserve_reached")
+    if r is not None:
+        lines.append(
+            f"reserve at      {r['time_s']:.0f} s, {r['path_m']:.0f} m along the route "
+            f"({100.0 * r['fraction']:.0f} % of it, leg {r['leg']}): the part that fits"
+        )
+    return lines
+
+
 def FormatFieldPlan(summary: dict) -> str:
     """The summary as the ``plan`` command prints it."""
     s = summary
@@ -331,19 +437,8 @@ def FormatFieldPlan(summary: dict) -> str:
         f"transits        {s['transits']} between cells, {s['transit_length_m']:.0f} m",
         f"path length     {s['path_length_m']:.0f} m",
     ]
-    e = s.get("lowest_plan")
-    if e is not None:
-        margin = e["final_soc"] - e["reserve_soc"]
-        lines += [
-            f"lowest plan     {e['time']:.0f} s ({e['time'] / 60:.1f} min) in still air, "
-            f"{e['energy'] / 1e3:.1f} kJ, mean {e['mean_power']:.1f} W (computation "
-            f"{e['computation_power']:.1f} W at c2 = "
-            f"{', '.join(f'{c:g}' for c in e['computation_parameters'])})",
-            f"battery         SoC {e['initial_soc']:.3f} -> {e['final_soc']:.3f} (reserve "
-            f"{e['reserve_soc']:.2f}: margin {margin:+.3f}"
-            + ("" if margin >= 0.0 else ": below the reserve, the survey does not fit")
-            + ")",
-        ]
+    lines += _MissionLines(s.get("mission"))
+    lines += _LowestPlanLines(s.get("lowest_plan"))
     r = s.get("lowest_plan_risk")
     if r is not None:
         ok = r["margin"] >= r["margin_at_risk"]
@@ -450,23 +545,39 @@ def PlotFieldPlan(plan: FieldPlan):
 
 
 def SaveFieldPlan(
-    plan: FieldPlan, directory, *, summary: dict, altitude: float, cruise_speed: float
+    plan: FieldPlan,
+    directory,
+    *,
+    summary: dict,
+    altitude: float,
+    cruise_speed: float,
+    ends=None,
+    fence=None,
+    missions: bool = True,
 ) -> list:
     """Writes ``directory`` as a whole (:func:`~eaplan_drake.files.ResultDirectory`): the three
-    missions (:func:`~eaplan_drake.field.missions.WriteMissions`), ``plan.png`` and
-    ``summary.json``; returns the paths written (in their final directory)."""
+    missions (:func:`~eaplan_drake.field.missions.WriteMissions`, between ``ends`` and inside
+    ``fence``; left out when ``missions`` is False), ``plan.png`` and ``summary.json``; returns
+    the paths written (in their final directory)."""
     from pathlib import Path
 
-    from eaplan_drake.field.missions import WriteMissions
+    from eaplan_drake.field.missions import MissionEnds, WriteMissions
     from eaplan_drake.files import AtomicWrite, ResultDirectory, StrictJson
 
+    ends = MissionEnds() if ends is None else ends
     final = Path(directory)
     with ResultDirectory(final) as tmp:
-        written = list(
-            WriteMissions(
-                tmp, plan.route, plan.field, altitude=altitude, cruise_speed=cruise_speed
+        written = []
+        if missions:
+            written += WriteMissions(
+                tmp,
+                plan.route,
+                plan.field,
+                altitude=altitude,
+                cruise_speed=cruise_speed,
+                ends=ends,
+                fence=fence,
             ).values()
-        )
         fig = PlotFieldPlan(plan)
         written.append(
             AtomicWrite(tmp / "plan.png", lambda f: fig.savefig(f, format="png", dpi=120), True)
