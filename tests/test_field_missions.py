@@ -280,3 +280,75 @@ def test_line_ends_are_lf_in_every_format(survey, landing):
     for _, _, paths in (survey, landing):
         for path in paths.values():
             assert b"\r" not in path.read_bytes(), path.name
+
+
+@pytest.fixture(scope="module")
+def fenced(survey, tmp_path_factory):
+    """The landing survey with its declared airspace as the geofence."""
+    from eaplan_drake.field.airspace import MakeAirspace
+    from eaplan_drake.params import Scenario
+
+    field, route, _ = survey
+    scenario = Scenario()
+    scenario.wind.speed = 10.0
+    fix = LANDING.ApproachFix(route)
+    airspace = MakeAirspace(route, field, scenario, home=HOME, extra_points=[fix])
+    out = tmp_path_factory.mktemp("fenced")
+    paths = WriteMissions(
+        out,
+        route,
+        field,
+        altitude=ALTITUDE,
+        cruise_speed=15.0,
+        ends=LANDING,
+        fence=airspace.Fence(),
+    )
+    return field, route, paths, airspace
+
+
+def _Flown(route, wps):
+    """Points [m] of what an autopilot flies from the exported items (item 0 home, lat/lon
+    [deg]): straight between positions, and each loiter's circle."""
+    from eaplan_drake.field.airspace import RoutePoints
+    from eaplan_drake.field.plan import WithHomeLegs
+
+    points = [FRAME.ToLocal([[lon, lat]])[0] for _, lat, lon, _ in wps]
+    out = [RoutePoints(WithHomeLegs(route, HOME))]
+    for a, b in zip(points[:-1], points[1:], strict=True):
+        t = np.linspace(0.0, 1.0, 50)[:, None]
+        out.append((1.0 - t) * a + t * b)
+    for (command, _, _, radius), c in zip(wps, points, strict=True):
+        if command == MAV_CMD_NAV_LOITER_TURNS:
+            a = np.linspace(0.0, 2.0 * np.pi, 90)
+            out.append(c + abs(radius) * np.column_stack([np.cos(a), np.sin(a)]))
+    return np.concatenate(out)
+
+
+def test_every_format_keeps_its_route_inside_its_own_fence(fenced):
+    """The fence read back from each file holds the route, the legs home and every item."""
+    import shapely
+
+    mavwp = pytest.importorskip("pymavlink.mavwp")
+    field, route, paths, airspace = fenced
+    plan = json.loads(paths["qgc_plan"].read_text())
+    (inclusion,) = [p for p in plan["geoFence"]["polygons"] if p["inclusion"]]
+    assert [p for p in plan["geoFence"]["polygons"] if not p["inclusion"]] == []
+    fence = shapely.Polygon(FRAME.ToLocal([[lon, lat] for lat, lon in inclusion["polygon"]]))
+    assert fence.symmetric_difference(airspace.polygon).area < 1e-4 * fence.area
+    loader = mavwp.MAVWPLoader()
+    loader.load(str(paths["wpl"]))
+    wps = [loader.wp(i) for i in range(loader.count())]
+    wpl = [(w.command, w.x, w.y, w.param3) for w in wps]
+    qgc = [(it["command"], *it["params"][4:6], it["params"][2]) for it in plan["mission"]["items"]]
+    for items in (wpl, qgc):
+        flown = _Flown(route, [i for i in items if i[0] != MAV_CMD_NAV_RETURN_TO_LAUNCH])
+        out = ~shapely.covers(fence, shapely.points(flown))
+        assert np.count_nonzero(out) == 0 and len(flown) > 5000
+    root = ET.fromstring(paths["paparazzi"].read_text())
+    (sector,) = root.find("sectors")
+    wp = {w.get("name"): (float(w.get("lon")), float(w.get("lat"))) for w in root.find("waypoints")}
+    sector_polygon = shapely.Polygon(FRAME.ToLocal([wp[c.get("name")] for c in sector]))
+    assert root.get("geofence_sector") == sector.get("name") == "Airspace"
+    assert sector_polygon.symmetric_difference(fence).area < 1e-4 * fence.area
+    flown = FRAME.ToLocal([wp[n] for n in wp if not n.startswith("A")])
+    assert np.count_nonzero(~shapely.covers(sector_polygon, shapely.points(flown))) == 0

@@ -47,8 +47,8 @@ def test_plan_prints_the_summary_and_writes_missions_figure_and_summary(tmp_path
     code = main(["plan", SHIPPED, "--out", str(tmp_path), "--scenario", "funen"])
     out = capsys.readouterr()
     assert code == 0, out.err
-    keys = ("cells", "sweep", "lines", "turns", "path length", "home", "altitudes", "lowest plan")
-    for key in (*keys, "battery"):
+    keys = ("cells", "sweep", "lines", "turns", "path length", "home", "altitudes", "airspace")
+    for key in (*keys, "fence check", "lowest plan", "battery"):
         assert any(line.startswith(key) for line in out.out.splitlines()), key
     folder = tmp_path / "funen_field"
     names = {"mission.plan", "mission.waypoints", "mission.xml", "plan.png", "summary.json"}
@@ -64,6 +64,11 @@ def test_plan_prints_the_summary_and_writes_missions_figure_and_summary(tmp_path
     assert e["energy"] == pytest.approx(e["mean_power"] * e["time"], rel=1e-12)
     assert 0.0 < e["final_soc"] < e["initial_soc"]
     assert summary["mission"]["end"] == "rtl" and summary["mission"]["ground_alt_from"] is None
+    # the route lies inside its own exported fence; the fence is the airspace, not the field
+    airspace = summary["airspace"]
+    assert airspace["check"]["outside"] == 0 and airspace["check"]["points"] > 4000
+    assert airspace["margin_m"] == pytest.approx(airspace["required"]["margin"], rel=1e-12)
+    assert 150.0 < airspace["margin_m"] < 200.0
     assert "ground assumed at 0 m AMSL: give --ground-alt" in out.out
     assert (folder / "plan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
@@ -86,6 +91,11 @@ def test_a_given_sweep_direction_and_c1_are_used(tmp_path, capsys):
         (["--ground-alt", "nan"], r"--ground-alt: must be in \[-9000, 9000\] m AMSL"),
         (["--home", "10.3,95"], r"--home: expected LON in \[-180, 180\] and LAT in \[-90, 90\]"),
         (["--set", "coverage.mission_end=crash"], r"coverage\.mission_end: must be one of"),
+        (
+            ["--set", "coverage.airspace_margin=50", "--scenario", "funen"],
+            r"coverage\.airspace_margin: 50 m is too small for this route: .* the smallest that "
+            r"works is 1\d\d\.\d m$",
+        ),
         (["--set", "coverage.swath_spacing=-1"], r"coverage\.swath_spacing"),
     ],
 )
@@ -141,9 +151,10 @@ def test_home_ground_altitude_and_landing_reach_the_missions(tmp_path, capsys):
     plan = json.loads((folder / "mission.plan").read_text())
     assert plan["mission"]["plannedHomePosition"][2] == 470.0
     assert plan["mission"]["items"][-1]["command"] == 21  # MAV_CMD_NAV_LAND
-    # read again from the QGC plan just written: the ground altitude comes from its home
+    # read again from the QGC plan just written (its fence, the airspace, is the field now):
+    # the ground altitude comes from its home
     again = ["plan", str(folder / "mission.plan"), "--out", str(tmp_path / "again")]
-    assert main([*again, "--scenario", "funen"]) == 0
+    assert main([*again, "--set", "battery.capacity=3.2", "--sweep-deg", "85"]) == 0
     summary = json.loads((tmp_path / "again" / "mission" / "summary.json").read_text())
     assert summary["mission"]["ground_alt_amsl_m"] == 470.0
     assert summary["mission"]["ground_alt_from"] == "the plan's home"

@@ -76,6 +76,52 @@ def _MissionEnds(args, scenario, field, route):
     return MissionEnds((float(home[0]), float(home[1])), float(ground), end, approach), source
 
 
+def _Airspace(plan, scenario, ends):
+    """The airspace of ``plan`` from ``ends.home`` (and the landing's approach fix), and the
+    check of the route, home legs included, against its fence as exported (through WGS84 at the
+    files' 8 decimals); raises :class:`~eaplan_drake.field.airspace.AirspaceError` when a point
+    leaves it."""
+    import numpy as np
+
+    from eaplan_drake.field.airspace import (
+        AirspaceError,
+        MakeAirspace,
+        PointsOutside,
+        RoutePoints,
+    )
+    from eaplan_drake.field.missions import Fence
+    from eaplan_drake.field.plan import WithHomeLegs
+
+    coverage, field = scenario.coverage, plan.field
+    extra = [ends.ApproachFix(plan.route)] if ends.end == "land" else []
+    airspace = MakeAirspace(
+        plan.route,
+        field,
+        scenario,
+        margin=coverage.airspace_margin,
+        home=ends.home,
+        extra_points=extra,
+        no_fly=field.holes if coverage.no_fly_holes else (),
+    )
+    fence = airspace.Fence()
+
+    def Exported(ring):
+        lonlat = np.round(field.frame.ToLonLat(ring), 8)
+        return field.frame.ToLocal(lonlat)
+
+    exported = Fence(Exported(fence.inclusion), tuple(Exported(h) for h in fence.exclusions))
+    points = np.concatenate(
+        [RoutePoints(WithHomeLegs(plan.route, ends.home)), np.asarray([ends.home, *extra])]
+    )
+    check = PointsOutside(points, exported)
+    if check["outside"] or check["in_no_fly"]:
+        raise AirspaceError(
+            f"the route leaves its own fence ({check['outside']} points outside, "
+            f"{check['in_no_fly']} in no-fly polygons): not written"
+        )
+    return airspace, check
+
+
 def _NotFitLine(summary: dict, scenario) -> str:
     """The one line of a plan whose lowest plan ends below the reserve."""
     e = summary["lowest_plan"]
@@ -99,6 +145,7 @@ def RunPlanCommand(args) -> int:
     Require("shapely")
     Require("pyproj")
     from eaplan_drake.field.plan import (
+        AirspaceSummary,
         BestStaticPlan,
         EndsSummary,
         FormatFieldPlan,
@@ -142,6 +189,8 @@ def RunPlanCommand(args) -> int:
     summary["scenario"] = scenario.name
     summary["path_parameter_c1"] = c1
     summary["mission"] = EndsSummary(field, ends, args.altitude, ground_source)
+    airspace, check = _Airspace(plan, scenario, ends)
+    summary["airspace"] = AirspaceSummary(airspace, check)
     fits = energy["final_soc"] >= energy["reserve_soc"]
     out = Path(args.out) / Path(args.field).stem
     written = SaveFieldPlan(
@@ -151,6 +200,7 @@ def RunPlanCommand(args) -> int:
         altitude=args.altitude,
         cruise_speed=scenario.vehicle.airspeed,
         ends=ends,
+        airspace=airspace,
         missions=fits or args.write_missions,
     )
     print(FormatFieldPlan(summary))

@@ -28,6 +28,7 @@ from eaplan_drake.field.readers import Field
 from eaplan_drake.field.route import Leg, MakeRoute, Route, RouteEnergy
 
 __all__ = [
+    "AirspaceSummary",
     "BestStaticPlan",
     "EndsSummary",
     "FieldPlan",
@@ -359,6 +360,34 @@ def EndsSummary(field: Field, ends, altitude: float, ground_source: str | None) 
     }
 
 
+def AirspaceSummary(airspace, check: dict) -> dict:
+    """The airspace (:class:`~eaplan_drake.field.airspace.Airspace`) and the route's check
+    against its exported fence as a JSON-ready dict."""
+    return {
+        "margin_m": airspace.margin,
+        "required": airspace.required,
+        "area_m2": float(airspace.polygon.area),
+        "vertices": len(airspace.polygon.exterior.coords) - 1,
+        "no_fly": len(airspace.no_fly),
+        "check": check,
+    }
+
+
+def _AirspaceLines(a: dict | None) -> list[str]:
+    """The ``airspace`` and ``fence check`` lines."""
+    if a is None:
+        return []
+    r, c = a["required"], a["check"]
+    return [
+        f"airspace        field + {a['margin_m']:.1f} m (smallest that works: lines "
+        f"{r['line_m']:.1f} m + turns {r['route_m'] - r['line_m']:.1f} m × {r['stretch']:.3f} in "
+        f"the wind + {r['allowance']:g} m tracking = {r['margin']:.1f} m); inclusion fence of "
+        f"{a['vertices']} vertices, {a['no_fly']} no-fly exclusions",
+        f"fence check     {c['outside']} of {c['points']} route points outside the exported "
+        f"fence, {c['in_no_fly']} in no-fly polygons",
+    ]
+
+
 def _MissionLines(m: dict | None) -> list[str]:
     """The ``home`` and ``altitudes`` lines of the summary's ``mission``."""
     if m is None:
@@ -438,6 +467,7 @@ def FormatFieldPlan(summary: dict) -> str:
         f"path length     {s['path_length_m']:.0f} m",
     ]
     lines += _MissionLines(s.get("mission"))
+    lines += _AirspaceLines(s.get("airspace"))
     lines += _LowestPlanLines(s.get("lowest_plan"))
     r = s.get("lowest_plan_risk")
     if r is not None:
@@ -477,42 +507,75 @@ def FormatFieldPlan(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _Arc(leg, n: int = 48) -> np.ndarray:
-    c = np.asarray(leg.center)
-    a0 = math.atan2(leg.start[1] - c[1], leg.start[0] - c[0])
-    sign = 1.0 if leg.ccw else -1.0
-    a = a0 + sign * np.linspace(0.0, leg.angle, n)
-    return c + leg.radius * np.column_stack([np.cos(a), np.sin(a)])
+_ROUTE_STYLE = {
+    "line": ("survey lines", {"color": "#1f5fbf", "lw": 0.8}),
+    "turn": ("turns", {"color": "#e08a1e", "lw": 0.6}),
+    "transit": ("transits", {"color": "#444444", "lw": 0.8, "ls": "--"}),
+    "home": ("from and to home", {"color": "#7b3fa0", "lw": 0.9, "ls": ":"}),
+}
 
 
-def PlotFieldPlan(plan: FieldPlan):
-    """A matplotlib ``Figure`` of the field, its cells and the route in the local frame, with a
-    north arrow and a scale bar."""
-    from matplotlib.figure import Figure
+def _DrawField(ax, plan: FieldPlan) -> list:
+    """The field, its holes and its numbered cells; returns their legend handles."""
+    from matplotlib.patches import Patch
     from matplotlib.patches import Polygon as PolygonPatch
 
-    fig = Figure(figsize=(8.0, 7.0))
-    ax = fig.add_subplot()
     field = plan.field
     ax.add_patch(PolygonPatch(field.exterior, closed=True, fc="#e3f1d4", ec="#4d7a2a", lw=1.5))
+    handles = [Patch(fc="#e3f1d4", ec="#4d7a2a", label="field")]
     for h in field.holes:
         ax.add_patch(PolygonPatch(h, closed=True, fc="white", ec="#4d7a2a", lw=1.2, hatch="//"))
+    if field.holes:
+        handles.append(Patch(fc="white", ec="#4d7a2a", hatch="//", label="hole (not surveyed)"))
     for k, cell in enumerate(plan.choice.decomposition.cells):
         ax.add_patch(PolygonPatch(cell.vertices, closed=True, fill=False, ec="#888888", lw=0.8))
         cx, cy = np.mean(cell.vertices, axis=0)
         ax.text(cx, cy, str(k), color="#555555", fontsize=9, ha="center", va="center")
-    for leg in plan.route.legs:
-        if leg.kind == "line":
-            ax.plot(*np.array([leg.start, leg.end]).T, color="#1f5fbf", lw=0.8)
-        elif leg.kind == "turn":
-            ax.plot(*_Arc(leg).T, color="#e08a1e", lw=0.6)
-        elif leg.radius > 0.0:
-            ax.plot(*_Arc(leg).T, color="#444444", lw=0.8, ls="--")
-        else:
-            ax.plot(*np.array([leg.start, leg.end]).T, color="#444444", lw=0.8, ls="--")
-    ax.plot(*plan.route.legs[0].start, "o", color="#1f5fbf", ms=5, label="start")
-    ax.set_aspect("equal")
-    ax.autoscale_view()
+    return handles + [Patch(fill=False, ec="#888888", label="cells (visiting order)")]
+
+
+def _DrawRoute(ax, route: Route, home) -> list:
+    """Every leg of ``route`` (from and back to ``home`` [m] if given) and the start; returns
+    their legend handles."""
+    from matplotlib.lines import Line2D
+
+    from eaplan_drake.field.airspace import LegPoints
+
+    flown = WithHomeLegs(route, home)
+    for leg in flown.legs:
+        ax.plot(*LegPoints(leg, 5.0).T, **_ROUTE_STYLE[leg.kind][1])
+    handles = [
+        Line2D([], [], label=label, **style)
+        for kind, (label, style) in _ROUTE_STYLE.items()
+        if flown.Count(kind)
+    ]
+    start, label = (route.legs[0].start, "start") if home is None else (home, "home")
+    color = _ROUTE_STYLE["home" if home is not None else "line"][1]["color"]
+    ax.plot(*start, "o", color=color, ms=6)
+    return handles + [Line2D([], [], marker="o", ls="", ms=6, color=color, label=label)]
+
+
+def _DrawAirspace(ax, airspace) -> list:
+    """The inclusion fence and the no-fly polygons; returns their legend handles."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+    from matplotlib.patches import Polygon as PolygonPatch
+
+    if airspace is None:
+        return []
+    ax.plot(*np.asarray(airspace.polygon.exterior.coords).T, color="tab:red", lw=1.0, ls="--")
+    label = f"airspace, inclusion fence (field + {airspace.margin:.0f} m)"
+    handles = [Line2D([], [], color="tab:red", lw=1.0, ls="--", label=label)]
+    for zone in airspace.no_fly:
+        ring = np.asarray(zone.exterior.coords)
+        ax.add_patch(PolygonPatch(ring, closed=True, fc="#f4c7c3", ec="tab:red", hatch="xx"))
+    if airspace.no_fly:
+        handles.append(Patch(fc="#f4c7c3", ec="tab:red", hatch="xx", label="no-fly"))
+    return handles
+
+
+def _DrawScaleAndNorth(ax) -> None:
+    """A scale bar (bottom left) and a north arrow (top right) in the axes' current limits."""
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
     span = max(x1 - x0, y1 - y0)
@@ -532,6 +595,23 @@ def PlotFieldPlan(plan: FieldPlan):
         fontweight="bold",
         arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5},
     )
+
+
+def PlotFieldPlan(plan: FieldPlan, airspace=None, home=None):
+    """A matplotlib ``Figure`` of the field, its holes and cells, the whole route (lines, every
+    piece of the turns, transits, and with ``home`` [m] the legs from and to it), the
+    ``airspace`` (:class:`~eaplan_drake.field.airspace.Airspace`: inclusion fence and no-fly
+    polygons) if given, in the local frame, with a legend, a north arrow and a scale bar."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10.0, 7.0))
+    ax = fig.add_subplot()
+    handles = _DrawField(ax, plan)
+    handles += _DrawRoute(ax, plan.route, home)
+    handles += _DrawAirspace(ax, airspace)
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    _DrawScaleAndNorth(ax)
     d = plan.choice.decomposition
     ax.set_title(
         f"{len(d.cells)} cells, {plan.route.Count('line')} lines at {d.theta_deg:.1f}° from "
@@ -539,7 +619,7 @@ def PlotFieldPlan(plan: FieldPlan):
     )
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
-    ax.legend(loc="lower right", fontsize=8)
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     fig.tight_layout()
     return fig
 
@@ -552,12 +632,13 @@ def SaveFieldPlan(
     altitude: float,
     cruise_speed: float,
     ends=None,
-    fence=None,
+    airspace=None,
     missions: bool = True,
 ) -> list:
     """Writes ``directory`` as a whole (:func:`~eaplan_drake.files.ResultDirectory`): the three
     missions (:func:`~eaplan_drake.field.missions.WriteMissions`, between ``ends`` and inside
-    ``fence``; left out when ``missions`` is False), ``plan.png`` and ``summary.json``; returns
+    the ``airspace``'s fence, :class:`~eaplan_drake.field.airspace.Airspace`; left out when
+    ``missions`` is False), ``plan.png`` (:func:`PlotFieldPlan`) and ``summary.json``; returns
     the paths written (in their final directory)."""
     from pathlib import Path
 
@@ -565,6 +646,8 @@ def SaveFieldPlan(
     from eaplan_drake.files import AtomicWrite, ResultDirectory, StrictJson
 
     ends = MissionEnds() if ends is None else ends
+    fence = None if airspace is None else airspace.Fence()
+    home = None if ends.home is None else ends.Home(plan.route)
     final = Path(directory)
     with ResultDirectory(final) as tmp:
         written = []
@@ -578,7 +661,7 @@ def SaveFieldPlan(
                 ends=ends,
                 fence=fence,
             ).values()
-        fig = PlotFieldPlan(plan)
+        fig = PlotFieldPlan(plan, airspace, home)
         written.append(
             AtomicWrite(tmp / "plan.png", lambda f: fig.savefig(f, format="png", dpi=120), True)
         )

@@ -130,6 +130,13 @@ class CoverageParams(_Params):
     home: list[float] = dc.field(default_factory=list)
     """Home, the launch point of a ``field`` survey's missions, [λ, φ] [deg WGS84]; empty: the
     first line's start."""
+    airspace_margin: float = -1.0
+    """M, how far beyond a ``field`` the declared airspace reaches [m], the missions' inclusion
+    geofence; < 0 (default): the smallest that works, derived from the turning radius, the line
+    spacing and the wind (:mod:`eaplan_drake.field.airspace`). A smaller value is refused."""
+    no_fly_holes: bool = False
+    """The ``field``'s holes are no-fly zones (exclusion geofences) instead of areas that are not
+    surveyed but may be overflown (default)."""
     mission_end: str = "rtl"
     """How a ``field`` survey's missions end: ``rtl`` (return to launch) or ``land`` (an approach
     and a landing at home)."""
@@ -165,6 +172,11 @@ class CoverageParams(_Params):
             f"must be one of best, convex, monotone, got {self.field_cells!r}",
         )
         _in_range(self.ground_alt, f"{key}.ground_alt", -9000.0, 9000.0)
+        _check(
+            isinstance(self.airspace_margin, (int, float)) and -1e9 < self.airspace_margin < 1e5,
+            f"{key}.airspace_margin",
+            f"must be < 100000 m (< 0: derived), got {self.airspace_margin!r}",
+        )
         if self.home:
             lon, lat = _vector(self.home, f"{key}.home", 2)
             _in_range(lon, f"{key}.home[0]", -180.0, 180.0)
