@@ -92,3 +92,18 @@ def test_reference_scenarios_keep_the_authors_scaling_and_survey_its_energy():
     assert survey.Energy() == pytest.approx(papers.Energy(), rel=1e-5)
     funen = LoadNamedScenario("funen").battery
     assert funen.Energy() == pytest.approx(1.6 * papers.Energy(), rel=1e-5)
+
+
+def test_a_label_set_over_a_scenario_replaces_its_pack():
+    from eaplan_drake.loading import LayerScenario, OverrideFromAssignment
+
+    survey = LoadNamedScenario("survey")  # states capacity: 0.485732 Ah
+    sets = ["battery.capacity_mah=3300", "battery.cells=3"]
+    s = LayerScenario(survey, [OverrideFromAssignment(a) for a in sets])
+    assert s.battery.Capacity() == 3.3 and s.battery.Voltage() == pytest.approx(11.1)
+    assert s.battery.capacity == 3.2 and s.battery.voltage == 14.8  # back to "not given"
+    s = LayerScenario(s, [OverrideFromAssignment("battery.energy_wh=47")])
+    assert s.battery.Energy() / 3600.0 == pytest.approx(47.0) and s.battery.capacity_mah == 0.0
+    # within one layer, two sizes are still two sizes
+    with pytest.raises(ScenarioError, match="battery.energy_wh: give the pack's size once"):
+        LayerScenario(survey, ["battery: {capacity_mah: 3300, energy_wh: 47}\n"])

@@ -130,3 +130,33 @@ def test_a_no_fly_polygon_the_route_crosses_is_one_line(survey):
     away = [(800.0, 800.0), (820.0, 800.0), (820.0, 820.0)]
     airspace = MakeAirspace(route, field, Scenario(), no_fly=[away])
     assert len(airspace.Fence().exclusions) == 1
+
+
+def test_a_field_flights_figure_draws_the_field_its_hole_and_airspace():
+    from eaplan_drake.field.readers import ReadField
+    from eaplan_drake.field.source import FieldPath
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.output.path_plot import SurveyShapes
+
+    scenario = LoadNamedScenario("funen")
+    shapes = SurveyShapes(scenario)
+    field = ReadField(FieldPath("funen_field"))
+    np.testing.assert_allclose(shapes["outline"], field.exterior)
+    assert len(shapes["holes"]) == 1
+    airspace = shapely.Polygon(shapes["airspace"])
+    assert airspace.covers(shapely.Polygon(field.exterior).buffer(150.0))
+    # the reference survey keeps its polygon, and has no declared airspace
+    plain = SurveyShapes(Scenario())
+    np.testing.assert_allclose(plain["outline"], Scenario().coverage.polygon)
+    assert plain["holes"] == [] and plain["airspace"] is None
+
+
+def test_a_given_margin_too_small_is_refused_before_the_flight():
+    from eaplan_drake.errors import ScenarioError
+    from eaplan_drake.loading import LoadNamedScenario
+    from eaplan_drake.resolve import ResolveScenario
+
+    scenario = LoadNamedScenario("funen")
+    scenario.coverage.airspace_margin = 40.0
+    with pytest.raises(ScenarioError, match=r"coverage\.airspace_margin: 40 m is too small"):
+        ResolveScenario(scenario)

@@ -224,7 +224,11 @@ def AddPlanParser(sub) -> None:
         "(cells, direction, lines, path length, time and energy of the static lowest plan) and "
         "write DIR/<field>/: mission.plan (QGroundControl), mission.waypoints (WPL 110), "
         "mission.xml (Paparazzi), plan.png and summary.json. Each mission takes off at home, "
-        "flies the survey and returns to launch or lands. A survey that does not fit the battery "
+        "flies the survey and returns to launch or lands, inside the airspace it declares: the "
+        "field plus coverage.airspace_margin (default: the smallest that works, from the turning "
+        "radius, the line spacing and the wind), its inclusion geofence. The battery is the "
+        "scenario's, as on its label (--set battery.capacity_mah=3300 --set battery.cells=4, or "
+        "battery.energy_wh). A survey that does not fit the battery "
         f"(the lowest plan ends below the reserve) exits with status {DOES_NOT_FIT} and writes no "
         "mission unless --write-missions. Needs the [field] extra.",
     )
@@ -236,7 +240,9 @@ def AddPlanParser(sub) -> None:
         default=[],
         metavar="KEY.PATH=VALUE",
         help="override a key of the scenario (repeatable): coverage.swath_spacing (line "
-        "spacing), coverage.min_turning_radius, vehicle.airspeed, battery.*, computation.table",
+        "spacing), coverage.min_turning_radius, coverage.airspace_margin, coverage.no_fly_holes, "
+        "coverage.ground_alt, vehicle.airspeed, wind.speed, battery.* (capacity_mah, cells, "
+        "energy_wh, ...), computation.table",
     )
     p.add_argument(
         "--scenario", default="survey", help="scenario whose vehicle, battery and computation "

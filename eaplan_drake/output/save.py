@@ -44,10 +44,12 @@ def SaveFlownMissions(log: "FlightLog", scenario: Scenario, directory: str | Pat
     transits (:meth:`~eaplan_drake.field.source.FieldCoverage.FlownRoute`), as ``flown.plan``,
     ``flown.waypoints`` and ``flown.xml`` (:func:`~eaplan_drake.field.missions.WriteMissions`)
     at :data:`FLOWN_ALTITUDE` above the ground at ``coverage.ground_alt``, from and back to
-    ``coverage.home`` (or the first line's start), ending as ``coverage.mission_end``. Returns
-    their paths."""
+    ``coverage.home`` (or the first line's start), ending as ``coverage.mission_end``, inside
+    the airspace the flown route declares (:func:`~eaplan_drake.field.airspace.MakeAirspace`).
+    Returns their paths."""
     import numpy as np
 
+    from eaplan_drake.field.airspace import MakeAirspace
     from eaplan_drake.field.missions import MissionEnds, WriteMissions
     from eaplan_drake.field.source import MakeFieldPlanSource
     from eaplan_drake.flight.coverage import FlownStages
@@ -60,6 +62,16 @@ def SaveFlownMissions(log: "FlightLog", scenario: Scenario, directory: str | Pat
     if coverage.home:
         home = tuple(float(v) for v in plan.field.frame.ToLocal(np.array([coverage.home]))[0])
     ends = MissionEnds(home, float(coverage.ground_alt), coverage.mission_end)
+    extra = [ends.ApproachFix(route)] if ends.end == "land" else []
+    airspace = MakeAirspace(
+        route,
+        plan.field,
+        scenario,
+        margin=coverage.airspace_margin,
+        home=ends.Home(route),
+        extra_points=extra,
+        no_fly=plan.field.holes if coverage.no_fly_holes else (),
+    )
     written = WriteMissions(
         directory,
         route,
@@ -67,6 +79,7 @@ def SaveFlownMissions(log: "FlightLog", scenario: Scenario, directory: str | Pat
         altitude=FLOWN_ALTITUDE,
         cruise_speed=scenario.vehicle.airspeed,
         ends=ends,
+        fence=airspace.Fence(),
         stem="flown",
     )
     return list(written.values())

@@ -129,6 +129,18 @@ class BatteryParams(_Params):
     """Battery model, one of :data:`~eaplan_drake.registry.BATTERY_MODELS` (``rint``: the Rint
     circuit above); the battery system and the planner's prediction both use it."""
 
+    def ForgetLabel(self, given) -> None:
+        """Before a layer that gives the keys ``given`` (a mapping or key names) is loaded over
+        these parameters: a size it gives (``capacity``, ``capacity_mah``, ``energy_wh``)
+        replaces the size held here, a voltage (``cells``, ``voltage``) the voltage, so that
+        ``--set battery.capacity_mah=3300`` over a scenario that states ``capacity`` is the new
+        pack, not two sizes."""
+        given = set(given)
+        if given & {"capacity", "capacity_mah", "energy_wh"}:
+            self.capacity, self.capacity_mah, self.energy_wh = _DEFAULT_CAPACITY, 0.0, 0.0
+        if given & {"cells", "voltage"}:
+            self.cells, self.voltage = 0, _DEFAULT_VOLTAGE
+
     def Voltage(self) -> float:
         """V [V]: ``cells`` × :data:`NOMINAL_CELL_VOLTAGE` when ``cells`` is given, else
         ``voltage``."""
