@@ -1,7 +1,8 @@
 """Missions out, read back: the QGroundControl plan (json and our field reader), the WPL 110 file
 (pymavlink's MAVWPLoader) and the Paparazzi flight plan (xml.etree and the structure of
-Paparazzi's flight_plan.dtd); geometry within 1 m; home, takeoff, return or landing, and each
-format's altitude frame."""
+Paparazzi's flight_plan.dtd; the DTD itself through lxml with ``PAPARAZZI_HOME``); geometry
+within 1 m; home, takeoff, return or landing, each format's altitude frame, and the route inside
+each format's own fence."""
 
 import json
 import math
@@ -352,3 +353,20 @@ def test_every_format_keeps_its_route_inside_its_own_fence(fenced):
     assert sector_polygon.symmetric_difference(fence).area < 1e-4 * fence.area
     flown = FRAME.ToLocal([wp[n] for n in wp if not n.startswith("A")])
     assert np.count_nonzero(~shapely.covers(sector_polygon, shapely.points(flown))) == 0
+
+
+def test_the_paparazzi_plans_validate_against_paparazzis_own_dtd(survey, landing, fenced):
+    """With a Paparazzi checkout (``PAPARAZZI_HOME``, as Paparazzi's own tools set it), every
+    flight plan validates against its ``conf/flight_plans/flight_plan.dtd`` (GPL, not shipped)."""
+    import os
+    from pathlib import Path
+
+    etree = pytest.importorskip("lxml.etree")
+    home = os.environ.get("PAPARAZZI_HOME", "")
+    dtd_path = Path(home) / "conf" / "flight_plans" / "flight_plan.dtd"
+    if not home or not dtd_path.is_file():
+        pytest.skip("PAPARAZZI_HOME does not hold conf/flight_plans/flight_plan.dtd")
+    dtd = etree.DTD(str(dtd_path))
+    for case in (survey, landing, fenced):
+        doc = etree.parse(str(case[2]["paparazzi"]))
+        assert dtd.validate(doc), dtd.error_log.filter_from_errors()
