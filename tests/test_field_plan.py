@@ -298,3 +298,20 @@ def test_the_point_of_no_return_is_the_first_leg_end_beyond_reach_of_home():
     assert Back(pnr["leg"]) < scenario.battery.reserve_soc <= Back(pnr["leg"] - 1)
     elapsed = sum(leg.length for leg in route.legs[: pnr["leg"] + 1]) / scenario.vehicle.airspeed
     assert pnr["time_s"] == pytest.approx(elapsed, rel=1e-12)
+
+
+def test_a_given_home_chooses_the_entry_nearest_to_it():
+    from eaplan_drake.field.plan import MakeFieldPlan
+
+    field = ReadField(SHIPPED)
+    kwargs = {"theta_deg": 85.0, "min_line_length": 8.0}
+    default = MakeFieldPlan(field, 25.1, 62.45, **kwargs)
+    gains = []
+    for home in field.exterior:  # every corner as the launch point
+        plan = MakeFieldPlan(field, 25.1, 62.45, start=home, **kwargs)
+        entry = np.linalg.norm(np.subtract(plan.route.legs[0].start, home))
+        before = np.linalg.norm(np.subtract(default.route.legs[0].start, home))
+        assert entry <= before + 1e-9
+        gains.append(before - entry)
+        assert plan.route.Count("line") == default.route.Count("line")
+    assert max(gains) > 100.0  # from a far corner the entry moves to that side of the field

@@ -41,11 +41,29 @@ def PlanHomeAltitude(path) -> float | None:
     return alt if math.isfinite(alt) else None
 
 
-def _MissionEnds(args, scenario, field, route):
-    """The :class:`~eaplan_drake.field.missions.MissionEnds` of the command line and scenario,
-    and where the ground altitude came from."""
+def _NearestVertex(field, point):
     import numpy as np
 
+    vertices = np.asarray(field.exterior)
+    return vertices[int(np.argmin(np.linalg.norm(vertices - np.asarray(point), axis=1)))]
+
+
+def _GivenHome(args, scenario, field):
+    """Home [m] as given (``--home``, else ``coverage.home``; with ``--home-vertex`` the field's
+    vertex nearest to it), or None."""
+    import numpy as np
+
+    lonlat = _ParseLonLat(args.home, "--home") if args.home else scenario.coverage.home
+    if not lonlat:
+        return None
+    home = field.frame.ToLocal(np.array([lonlat], dtype=float))[0]
+    return _NearestVertex(field, home) if args.home_vertex else home
+
+
+def _MissionEnds(args, scenario, field, route, home):
+    """The :class:`~eaplan_drake.field.missions.MissionEnds` of the command line and scenario
+    (``home`` [m] as given, or None: the first line's start, or with ``--home-vertex`` the
+    field's vertex nearest to it), and where the ground altitude came from."""
     from eaplan_drake.field.missions import MissionEnds
 
     coverage = scenario.coverage
@@ -57,14 +75,6 @@ def _MissionEnds(args, scenario, field, route):
         ground, source = from_plan, "the plan's home"
     else:
         ground, source = 0.0, None
-    lonlat = _ParseLonLat(args.home, "--home") if args.home else coverage.home
-    home = None
-    if lonlat:
-        home = field.frame.ToLocal(np.array([lonlat], dtype=float))[0]
-    if args.home_vertex:
-        target = np.asarray(route.legs[0].start if home is None else home)
-        vertices = np.asarray(field.exterior)
-        home = vertices[int(np.argmin(np.linalg.norm(vertices - target, axis=1)))]
     approach = None
     wind = scenario.wind
     if wind.speed > 0.0:
@@ -72,7 +82,9 @@ def _MissionEnds(args, scenario, field, route):
         approach = (math.cos(a), math.sin(a))  # downwind of home: the landing flies into the wind
     end = args.end or coverage.mission_end
     ends = MissionEnds(None, float(ground), end, approach).Check()
-    home = ends.Home(route) if home is None else home
+    if home is None:
+        home = ends.Home(route)
+        home = _NearestVertex(field, home) if args.home_vertex else home
     return MissionEnds((float(home[0]), float(home[1])), float(ground), end, approach), source
 
 
@@ -172,6 +184,7 @@ def RunPlanCommand(args) -> int:
     spacing = LineSpacing(coverage, c1)
     origin = _ParseLonLat(args.origin, "--origin") if args.origin else None
     field = ReadField(args.field, index=args.polygon, origin=origin, min_width=spacing)
+    given_home = _GivenHome(args, scenario, field)
     plan = MakeFieldPlan(
         field,
         spacing,
@@ -179,8 +192,9 @@ def RunPlanCommand(args) -> int:
         theta_deg=args.sweep_deg,
         cells=coverage.field_cells,
         min_line_length=4.0 * coverage.trigger_radius,
+        start=given_home,
     )
-    ends, ground_source = _MissionEnds(args, scenario, field, plan.route)
+    ends, ground_source = _MissionEnds(args, scenario, field, plan.route, given_home)
     home = ends.Home(plan.route)
     energy = LowestPlanEnergy(plan, scenario, home)
     summary = Summary(plan, energy)

@@ -76,6 +76,7 @@ def MakeFieldPlan(
     theta_deg: float | None = None,
     cells: str = "best",
     min_line_length: float = 0.0,
+    start=None,
 ) -> FieldPlan:
     """The plan over ``field`` at line spacing x_d = ``spacing`` and turns of at least r_min =
     ``min_turning_radius`` [m]; θ = ``theta_deg`` [deg from east] or, when None, the direction
@@ -84,7 +85,8 @@ def MakeFieldPlan(
     that visit the nearest cell next, the plan's route then takes the shortest transits,
     :func:`~eaplan_drake.field.route.MakeRoute`); lines shorter than
     ``min_line_length`` [m] are left out (:func:`~eaplan_drake.field.route.CellSweepLines`: 4 ε
-    for a plan the sequencer flies)."""
+    for a plan the sequencer flies). With ``start`` [m] (home) the route enters the field at the
+    cell and end nearest to it (the sweep direction is still the shortest route's)."""
     kinds = {"convex": (True,), "monotone": (False,), "best": (True, False)}
     if cells not in kinds:
         raise ValueError(f"cells: must be one of {', '.join(kinds)}, got {cells!r}")
@@ -110,7 +112,11 @@ def MakeFieldPlan(
             choice = SweepChoice(d, len(lines), total, 1)
             chosen_by = "given (--sweep-deg)"
         route = MakeRoute(
-            choice.decomposition, spacing, min_turning_radius, min_line_length=min_line_length
+            choice.decomposition,
+            spacing,
+            min_turning_radius,
+            start,
+            min_line_length=min_line_length,
         )
         if best is None or route.Length() < best.route.Length() - 1e-9:
             best = FieldPlan(field, choice, route, chosen_by)
