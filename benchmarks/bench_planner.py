@@ -27,7 +27,7 @@ import numpy as np
 from eaplan_drake.energy.battery import SocDerivative
 from eaplan_drake.energy.computation import LoadComputationTable
 from eaplan_drake.energy.fourier import DiscreteFourierMatrices
-from eaplan_drake.params import BatteryFault, BatteryParams, PlannerParams
+from eaplan_drake.params import AUTHORS_K_B, BatteryFault, BatteryParams, PlannerParams
 from eaplan_drake.planning.paper import Planner
 
 PERIOD = 46.0
@@ -88,6 +88,7 @@ def MpcAgreement(states: int, solver: str, seed: int = 8):
     from eaplan_drake.studies.worlds import RandomPlannerObservation
 
     scenario = Scenario()
+    scenario.battery.k_b = AUTHORS_K_B  # the papers' battery, as before packs had labels
     scenario.planner.solver = solver
     table = LoadComputationTable(scenario.computation.table)
     grid = scenario.planner.PathParameterGrid()
@@ -134,8 +135,9 @@ def main():
     args = parser.parse_args()
 
     table = LoadComputationTable("pednet_jetson_nano")
-    battery = BatteryParams(
-        faults=[BatteryFault(time=93.0, soc_drop=0.06), BatteryFault(time=270.0, soc_drop=0.09)]
+    battery = BatteryParams(  # the papers' battery: the authors' scaling of Ah to seconds
+        k_b=AUTHORS_K_B,
+        faults=[BatteryFault(time=93.0, soc_drop=0.06), BatteryFault(time=270.0, soc_drop=0.09)],
     )
     solve, step, fail, infeasible, n = [], [], 0, 0, 0
     for name, c1, c2, seed in (("plan i ", 0.0, 10.0, 1), ("plan ii", -1000.0, 2.0, 2)):

@@ -99,10 +99,10 @@ def FlyReferenceLoop(scenario, log_period: float = 0.1) -> dict:
     eps2 = float(s.coverage.trigger_radius) ** 2
     # battery
     bat = s.battery
-    V, R = float(bat.voltage), float(bat.internal_resistance)
+    V, R = bat.Voltage(), float(bat.internal_resistance)
     p_max = V * V / (4.0 * R)
     i_max = V / (2.0 * R)
-    rate_per_amp_step = bat.k_b / bat.capacity * h
+    rate_per_amp_step = bat.k_b / bat.Capacity() * h
     faults = sorted((f.time - 1e-9, f.soc_drop) for f in bat.faults)
     reserve = float(bat.reserve_soc)
     # sensor

@@ -30,7 +30,7 @@ import yaml
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.files import MissingFile, ReadTextFile
 from eaplan_drake.packaged import PACKAGED_FIELDS, PACKAGED_PLANS, PACKAGED_TABLES
-from eaplan_drake.params import Scenario
+from eaplan_drake.params import BatteryParams, Scenario
 from eaplan_drake.params.walk import _Dataclasses, _Hints, _UnknownKeyMessage, _Walk
 
 __all__ = [
@@ -175,7 +175,10 @@ def _LoadLayer(data: str, defaults: Scenario, where: str, source: str = "") -> S
         raise ScenarioError(f"{where}the scenario must be a mapping of keys at the top level")
     if not raw:
         return defaults
-    return _Walk(Scenario, raw, "", raw=True, current=copy.deepcopy(defaults))
+    current = copy.deepcopy(defaults)
+    if isinstance(raw.get("battery"), dict) and isinstance(current.battery, BatteryParams):
+        current.battery.ForgetLabel(raw["battery"])  # a pack's label replaces the one below
+    return _Walk(Scenario, raw, "", raw=True, current=current)
 
 
 def OverrideFromAssignment(assignment: str) -> str:

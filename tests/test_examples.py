@@ -27,4 +27,4 @@ def test_one_system_example_prints_the_rint_soc_after_100_s():
     expected = 1.0 - p.k_b * current * 100.0 / p.capacity
     printed = float(out.strip().rsplit(" ", 1)[-1])
     assert printed == pytest.approx(expected, abs=6e-5)
-    assert "SoC after 100 s: 0.8725" in out
+    assert "SoC after 100 s: 0.9806" in out

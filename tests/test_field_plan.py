@@ -14,6 +14,7 @@ shapely = pytest.importorskip("shapely")
 pytest.importorskip("pyproj")
 
 from eaplan_drake.cli import main  # noqa: E402
+from eaplan_drake.field.command import DOES_NOT_FIT  # noqa: E402
 from eaplan_drake.field.decompose import Decompose, IsConvex  # noqa: E402
 from eaplan_drake.field.plan import LineSpacing  # noqa: E402
 from eaplan_drake.field.readers import ReadField  # noqa: E402
@@ -43,10 +44,11 @@ def test_line_spacing_is_x_d_at_c1_0_and_wider_at_the_lowest_plan():
 
 
 def test_plan_prints_the_summary_and_writes_missions_figure_and_summary(tmp_path, capsys):
-    code = main(["plan", SHIPPED, "--out", str(tmp_path)])
+    code = main(["plan", SHIPPED, "--out", str(tmp_path), "--scenario", "funen"])
     out = capsys.readouterr()
     assert code == 0, out.err
-    for key in ("cells", "sweep", "lines", "turns", "path length", "lowest plan", "battery"):
+    keys = ("cells", "sweep", "lines", "turns", "path length", "home", "altitudes", "airspace")
+    for key in (*keys, "fence check", "lowest plan", "battery"):
         assert any(line.startswith(key) for line in out.out.splitlines()), key
     folder = tmp_path / "funen_field"
     names = {"mission.plan", "mission.waypoints", "mission.xml", "plan.png", "summary.json"}
@@ -55,20 +57,25 @@ def test_plan_prints_the_summary_and_writes_missions_figure_and_summary(tmp_path
     parts = summary["line_length_m"] + summary["turn_length_m"] + summary["transit_length_m"]
     assert summary["path_length_m"] == pytest.approx(parts, rel=1e-12)
     e = summary["lowest_plan"]
-    assert e["time"] == pytest.approx(summary["path_length_m"] / 15.0, rel=1e-12)
+    # the time includes the flight back home (the first line's start) from the route's end
+    assert 0.0 < e["home_legs_m"] < 1000.0
+    flown = summary["path_length_m"] + e["home_legs_m"]
+    assert e["time"] == pytest.approx(flown / 15.0, rel=1e-12)
     assert e["energy"] == pytest.approx(e["mean_power"] * e["time"], rel=1e-12)
     assert 0.0 < e["final_soc"] < e["initial_soc"]
-    # the plan's geofence is the shipped field, within 1 m
-    field = ReadField(SHIPPED)
-    back = ReadField(folder / "mission.plan", origin=(field.frame.lon, field.frame.lat))
-    assert np.abs(back.exterior - field.exterior).max() < 1.0
-    assert np.abs(back.holes[0] - field.holes[0]).max() < 1.0
+    assert summary["mission"]["end"] == "rtl" and summary["mission"]["ground_alt_from"] is None
+    # the route lies inside its own exported fence; the fence is the airspace, not the field
+    airspace = summary["airspace"]
+    assert airspace["check"]["outside"] == 0 and airspace["check"]["points"] > 4000
+    assert airspace["margin_m"] == pytest.approx(airspace["required"]["margin"], rel=1e-12)
+    assert 150.0 < airspace["margin_m"] < 200.0
+    assert "ground assumed at 0 m AMSL: give --ground-alt" in out.out
     assert (folder / "plan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_a_given_sweep_direction_and_c1_are_used(tmp_path, capsys):
     args = ["plan", SHIPPED, "--out", str(tmp_path), "--sweep-deg", "30", "--c1", "0"]
-    assert main(args) == 0
+    assert main([*args, "--set", "battery.capacity=3.2"]) == 0  # 47 Wh
     summary = json.loads((tmp_path / "funen_field" / "summary.json").read_text())
     assert summary["sweep_deg_from_east"] == pytest.approx(30.0)
     assert summary["line_spacing_m"] == pytest.approx(10.0)
@@ -81,6 +88,14 @@ def test_a_given_sweep_direction_and_c1_are_used(tmp_path, capsys):
         (["--c1", "5"], r"--c1: must be in \[-1000, 0\]"),
         (["--origin", "10.3"], r"--origin: expected LON,LAT"),
         (["--altitude", "-1"], r"--altitude: must be in \(0, 10000\)"),
+        (["--ground-alt", "nan"], r"--ground-alt: must be in \[-9000, 9000\] m AMSL"),
+        (["--home", "10.3,95"], r"--home: expected LON in \[-180, 180\] and LAT in \[-90, 90\]"),
+        (["--set", "coverage.mission_end=crash"], r"coverage\.mission_end: must be one of"),
+        (
+            ["--set", "coverage.airspace_margin=50", "--scenario", "funen"],
+            r"coverage\.airspace_margin: 50 m is too small for this route: .* the smallest that "
+            r"works is 1\d\d\.\d m$",
+        ),
         (["--set", "coverage.swath_spacing=-1"], r"coverage\.swath_spacing"),
     ],
 )
@@ -90,6 +105,59 @@ def test_a_bad_option_is_one_line(tmp_path, capsys, extra, message):
     assert len(err.strip().splitlines()) == 1
     assert re.search(message, err), err
     assert not (tmp_path / "funen_field").exists()
+
+
+def test_a_survey_that_does_not_fit_says_so_in_one_line_and_writes_no_mission(tmp_path, capsys):
+    # the survey scenario's 7.19 Wh pack: the shipped field needs 5.4 Wh, 5.0 Wh are above the
+    # reserve
+    code = main(["plan", SHIPPED, "--out", str(tmp_path)])
+    out = capsys.readouterr()
+    assert code == DOES_NOT_FIT == 4
+    (line,) = out.err.strip().splitlines()
+    assert re.fullmatch(
+        r"eaplan-drake: the survey does not fit: its lowest plan draws 5\.\d\d Wh, the pack gives "
+        r"5\.0\d Wh above the 0\.30 reserve: 0\.\d\d Wh missing; the reserve is reached 9\d % "
+        r"along the route; missions not written \(--write-missions writes them\)",
+        line,
+    ), line
+    assert {p.name for p in (tmp_path / "funen_field").iterdir()} == {"plan.png", "summary.json"}
+    summary = json.loads((tmp_path / "funen_field" / "summary.json").read_text())
+    e = summary["lowest_plan"]
+    assert e["final_soc"] < e["reserve_soc"] and 0.9 < e["reserve_reached"]["fraction"] < 1.0
+    assert "reserve at" in out.out
+    # on request the missions are written, with the same status
+    assert main(["plan", SHIPPED, "--out", str(tmp_path / "w"), "--write-missions"]) == 4
+    assert (tmp_path / "w" / "funen_field" / "mission.waypoints").exists()
+
+
+def test_an_empty_pack_shows_how_far_below_it_would_go(tmp_path, capsys):
+    args = ["plan", SHIPPED, "--out", str(tmp_path), "--set", "battery.capacity=0.2"]
+    assert main(args) == 4
+    out = capsys.readouterr().out
+    assert re.search(r"SoC 1\.000 -> empty \(-\d\.\d\d\d had it no bottom\)", out), out
+
+
+def test_home_ground_altitude_and_landing_reach_the_missions(tmp_path, capsys):
+    field = ReadField(SHIPPED)
+    corner = field.ExteriorLonLat()[2]
+    home = f"{corner[0] + 0.0005:.6f},{corner[1]:.6f}"  # ≈ 30 m east of the third vertex
+    args = ["plan", SHIPPED, "--out", str(tmp_path), "--scenario", "funen", "--home", home]
+    args += ["--home-vertex", "--ground-alt", "470", "--end", "land"]
+    assert main(args) == 0
+    folder = tmp_path / "funen_field"
+    summary = json.loads((folder / "summary.json").read_text())
+    np.testing.assert_allclose(summary["mission"]["home_m"], field.exterior[2], atol=1e-6)
+    assert summary["mission"]["ground_alt_from"] == "--ground-alt"
+    plan = json.loads((folder / "mission.plan").read_text())
+    assert plan["mission"]["plannedHomePosition"][2] == 470.0
+    assert plan["mission"]["items"][-1]["command"] == 21  # MAV_CMD_NAV_LAND
+    # read again from the QGC plan just written (its fence, the airspace, is the field now):
+    # the ground altitude comes from its home
+    again = ["plan", str(folder / "mission.plan"), "--out", str(tmp_path / "again")]
+    assert main([*again, "--set", "battery.capacity=3.2", "--sweep-deg", "85"]) == 0
+    summary = json.loads((tmp_path / "again" / "mission" / "summary.json").read_text())
+    assert summary["mission"]["ground_alt_amsl_m"] == 470.0
+    assert summary["mission"]["ground_alt_from"] == "the plan's home"
 
 
 def test_a_bad_field_is_one_line_naming_it(tmp_path, capsys):
@@ -215,7 +283,7 @@ def test_the_point_of_no_return_is_the_first_leg_end_beyond_reach_of_home():
     route = MakeRoute(Decompose(rect, 0.0), 25.0, 62.45)
     p = RoutePrediction(route, scenario, [2.0])
     assert PointOfNoReturn(route, p, scenario) is None  # 1.6 × the reference battery: plenty
-    scenario.battery.capacity = 2.0
+    scenario.battery.capacity = 0.3  # Ah at 14.8 V: 4.4 Wh
     p = RoutePrediction(route, scenario, [2.0])
     pnr = PointOfNoReturn(route, p, scenario)
     assert pnr is not None and 0 < pnr["leg"] < len(route.legs)
@@ -230,3 +298,20 @@ def test_the_point_of_no_return_is_the_first_leg_end_beyond_reach_of_home():
     assert Back(pnr["leg"]) < scenario.battery.reserve_soc <= Back(pnr["leg"] - 1)
     elapsed = sum(leg.length for leg in route.legs[: pnr["leg"] + 1]) / scenario.vehicle.airspeed
     assert pnr["time_s"] == pytest.approx(elapsed, rel=1e-12)
+
+
+def test_a_given_home_chooses_the_entry_nearest_to_it():
+    from eaplan_drake.field.plan import MakeFieldPlan
+
+    field = ReadField(SHIPPED)
+    kwargs = {"theta_deg": 85.0, "min_line_length": 8.0}
+    default = MakeFieldPlan(field, 25.1, 62.45, **kwargs)
+    gains = []
+    for home in field.exterior:  # every corner as the launch point
+        plan = MakeFieldPlan(field, 25.1, 62.45, start=home, **kwargs)
+        entry = np.linalg.norm(np.subtract(plan.route.legs[0].start, home))
+        before = np.linalg.norm(np.subtract(default.route.legs[0].start, home))
+        assert entry <= before + 1e-9
+        gains.append(before - entry)
+        assert plan.route.Count("line") == default.route.Count("line")
+    assert max(gains) > 100.0  # from a far corner the entry moves to that side of the field

@@ -249,7 +249,15 @@ def test_the_shipped_field_is_flown_with_the_default_planner(tmp_path):
             assert st.trigger == pytest.approx(leg.end, abs=1e-9)
     written = SaveFlownMissions(log, scenario, tmp_path)
     assert sorted(p.name for p in written) == ["flown.plan", "flown.waypoints", "flown.xml"]
-    back = Read(str(tmp_path / "flown.plan"))  # the field as the geofence, read back
-    assert back.exterior.shape == plan.field.exterior.shape
+    # the geofence is the airspace of the route flown: it holds that route, read back
+    import shapely
+
+    from eaplan_drake.field.airspace import RoutePoints
+
+    back = Read(str(tmp_path / "flown.plan"), origin=(plan.field.frame.lon, plan.field.frame.lat))
+    fence = shapely.Polygon(back.exterior)
+    assert fence.covers(shapely.Polygon(plan.field.exterior).buffer(150.0))
+    inside = shapely.covers(fence, shapely.points(RoutePoints(route)))
+    assert np.count_nonzero(~inside) == 0
     with pytest.raises(ValueError, match="goes from stage"):
         FlownStages(plan, [stages[0].index, stages[0].index + 5, 1], c1[:3])

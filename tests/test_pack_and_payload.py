@@ -104,3 +104,17 @@ def test_the_pack_and_payload_keys_are_checked_and_named():
     ):
         with pytest.raises(ScenarioError, match=match):
             LoadScenario(data=data)
+
+
+@pytest.mark.parametrize(
+    "label",
+    [{"capacity": 3.2, "cells": 4}, {"capacity_mah": 3200.0, "cells": 4}, {"energy_wh": 47.36}],
+    ids=["Ah", "mAh", "Wh"],
+)
+def test_the_health_scales_a_pack_however_its_label_is_given(label):
+    from eaplan_drake.params import BatteryParams
+
+    nominal = BatteryParams(**label)
+    worn = UsablePack(BatteryParams(**label, health=0.85))
+    assert worn.Capacity() == pytest.approx(0.85 * nominal.Capacity(), rel=1e-12)
+    assert worn.Voltage() == nominal.Voltage() and worn.health == 1.0

@@ -13,7 +13,7 @@ from eaplan_drake.energy.battery import (
     PowerBudget,
     TimeToSoc,
 )
-from eaplan_drake.params import BatteryParams, PlannerParams
+from eaplan_drake.params import AUTHORS_K_B, BatteryParams, PlannerParams
 from eaplan_drake.planning.paper import MakePlannerProgram, Planner
 from eaplan_drake.planning.prediction import (
     FreeResponse,
@@ -21,29 +21,34 @@ from eaplan_drake.planning.prediction import (
 )
 
 
+def PaperBattery() -> BatteryParams:
+    """The papers' battery: 3.2 Ah at 14.8 V with the authors' scaling k_b = 0.00183."""
+    return BatteryParams(k_b=AUTHORS_K_B)
+
+
 @pytest.fixture(scope="module")
 def planner(table):
-    return Planner(PlannerParams(), table, ORDER, BatteryParams(), COVERAGE_TIMES)
+    return Planner(PlannerParams(), table, ORDER, PaperBattery(), COVERAGE_TIMES)
 
 
 def test_snopt_solves_the_same_nlp(table):
     """planner.solver = snopt: same relaxed optimum as IPOPT (to the solvers' tolerances)."""
-    ipopt = Planner(PlannerParams(), table, ORDER, BatteryParams(), COVERAGE_TIMES)
-    snopt = Planner(PlannerParams(solver="snopt"), table, ORDER, BatteryParams(), COVERAGE_TIMES)
+    ipopt = Planner(PlannerParams(), table, ORDER, PaperBattery(), COVERAGE_TIMES)
+    snopt = Planner(PlannerParams(solver="snopt"), table, ORDER, PaperBattery(), COVERAGE_TIMES)
     for soc in (1.0, 0.68, 0.5):
         a, slack_a = _Relaxed(ipopt, soc, [10.0])
         b, slack_b = _Relaxed(snopt, soc, [10.0])
         np.testing.assert_allclose(b, a, atol=0.05)  # IPOPT's barrier stays ≈ 0.03 off a bound
         np.testing.assert_allclose(slack_b, slack_a, atol=1e-3)
     continuous = Planner(
-        PlannerParams(solver="snopt"), table, ORDER, BatteryParams(), COVERAGE_TIMES, integer=False
+        PlannerParams(solver="snopt"), table, ORDER, PaperBattery(), COVERAGE_TIMES, integer=False
     )
     sol = continuous.Plan(Q_REF, 0.68, PERIOD, 0.5, [10.0], 0.0)
     assert sol.success and sol.feasible
 
 
 def test_output_constraint_jacobian_matches_finite_differences(table2):
-    program = MakePlannerProgram(PlannerParams(horizon=4), table2, BatteryParams())
+    program = MakePlannerProgram(PlannerParams(horizon=4), table2, PaperBattery())
     f = FreeResponse(Q_REF, ORDER, PERIOD, 0.5, 9)
     program.SetData(f, 0.7, [6.0, 4.0])
     rng = np.random.default_rng(3)
@@ -66,8 +71,8 @@ def test_output_constraint_jacobian_matches_finite_differences(table2):
         program._OutputConstraint(np.concatenate((x[:8], np.zeros(4)))),
         np.concatenate(
             (
-                y0 - PowerBudget(soc[:-1], BatteryParams()),
-                y1 - PowerBudget(soc[1:], BatteryParams()),
+                y0 - PowerBudget(soc[:-1], PaperBattery()),
+                y1 - PowerBudget(soc[1:], PaperBattery()),
             )
         ),
         atol=1e-12,
@@ -75,7 +80,7 @@ def test_output_constraint_jacobian_matches_finite_differences(table2):
 
 
 def test_program_variables_and_bounds(table):
-    program = MakePlannerProgram(PlannerParams(horizon=5), table, BatteryParams())
+    program = MakePlannerProgram(PlannerParams(horizon=5), table, PaperBattery())
     assert program.computation_variables.shape == (5, 1)
     assert program.path_variables.shape == (5,)
     assert program.slack_variables.shape == (5,)
@@ -121,11 +126,11 @@ def test_budget_below_lowest_power_gives_lowest_and_uses_slack(planner, table):
     relaxed, slack = _Relaxed(planner, soc, [10.0])
     np.testing.assert_allclose(relaxed, table.lower[0], atol=1e-3)
     f0 = Q_REF[0] + Q_REF[1] + Q_REF[3] + Q_REF[5]
-    violation = f0 + table.power([2.0]) - table.power([10.0]) - PowerBudget(soc, BatteryParams())
+    violation = f0 + table.power([2.0]) - table.power([10.0]) - PowerBudget(soc, PaperBattery())
     assert violation > 0.0
     # The NLP measures the violation (start or end of each step) with its smooth ĝ.
     y_start, y_end, soc_nodes = planner.program.Outputs(np.zeros((6, 1)))
-    budget = PowerBudget(soc_nodes, BatteryParams())
+    budget = PowerBudget(soc_nodes, PaperBattery())
     violation_hat = np.maximum(y_start - budget[:-1], y_end - budget[1:])
     np.testing.assert_allclose(slack, violation_hat, atol=1e-4)
     assert slack[0] == pytest.approx(violation, abs=0.35)  # 2 × the fit error of ĝ
@@ -158,8 +163,8 @@ def test_lowering_soc_never_raises_c2(planner):
 
 
 def test_two_parameter_table_maps_to_best_admissible_grid_point(table2):
-    planner = Planner(PlannerParams(), table2, ORDER, BatteryParams(), COVERAGE_TIMES)
-    battery = BatteryParams()
+    planner = Planner(PlannerParams(), table2, ORDER, PaperBattery(), COVERAGE_TIMES)
+    battery = PaperBattery()
     f = Fourier(Q_REF, np.array([0.0, 0.5, 1.0]), PERIOD)
     g_prev = table2.power([10.0, 10.0])
     for soc in (0.95, 0.68, 0.66, 0.4):
@@ -189,7 +194,7 @@ def _AssertStepFeasible(table, battery, soc, c):
 
 
 def test_non_integer_parameters_are_feasible_and_above_the_grid_choice(table):
-    battery = BatteryParams()
+    battery = PaperBattery()
     continuous = Planner(PlannerParams(), table, ORDER, battery, COVERAGE_TIMES, integer=False)
     soc = 0.68
     sol = continuous.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], 0.0)
@@ -204,7 +209,7 @@ def test_non_integer_parameters_are_feasible_and_above_the_grid_choice(table):
 
 def test_linear_power_model_gives_same_extremes(table):
     planner = Planner(
-        PlannerParams(power_model="linear"), table, ORDER, BatteryParams(), COVERAGE_TIMES
+        PlannerParams(power_model="linear"), table, ORDER, PaperBattery(), COVERAGE_TIMES
     )
     assert planner.program.surrogate.kind == "linear"
     assert planner.Plan(Q_REF, 1.0, PERIOD, 0.5, [2.0], 0.0).computation_parameters[0] == 10.0
@@ -215,7 +220,7 @@ def test_integer_step_needs_no_nlp_and_decides_as_after_a_solve(planner, table):
     """The mapping never reads the relaxed optimum: an iteration limit that makes every solve
     fail changes nothing for integer parameters."""
     params = PlannerParams(max_iterations=1)
-    limited = Planner(params, table, ORDER, BatteryParams(), COVERAGE_TIMES)
+    limited = Planner(params, table, ORDER, PaperBattery(), COVERAGE_TIMES)
     for soc in (1.0, *IN_BETWEEN_SOC, 0.5):
         sol = limited.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], -300.0)
         ref = planner.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], -300.0)
@@ -228,7 +233,7 @@ def test_integer_step_needs_no_nlp_and_decides_as_after_a_solve(planner, table):
 
 def test_forced_failure_keeps_c1_and_takes_the_largest_admissible_c2(table):
     params = PlannerParams(max_iterations=1)
-    battery = BatteryParams()
+    battery = PaperBattery()
     failing = Planner(params, table, ORDER, battery, COVERAGE_TIMES, integer=False)
     soc = 0.68
     sol = failing.Plan(Q_REF, soc, PERIOD, 0.5, [10.0], -300.0)
@@ -241,7 +246,7 @@ def test_forced_failure_keeps_c1_and_takes_the_largest_admissible_c2(table):
 
 
 def test_time_to_reserve_matches_closed_form_for_constant_load(planner):
-    battery = BatteryParams()
+    battery = PaperBattery()
     q = np.zeros(7)
     q[0] = 35.0
     f = FreeResponse(q, ORDER, PERIOD, 0.5, 2 * 700 + 1)

@@ -4,7 +4,7 @@ import pytest
 
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.loading import LoadScenario
-from eaplan_drake.params import Scenario
+from eaplan_drake.params import PHYSICAL_K_B, Scenario
 
 
 def test_defaults_are_the_reference_numbers():
@@ -14,7 +14,7 @@ def test_defaults_are_the_reference_numbers():
     assert s.battery.voltage == 14.8
     assert s.battery.internal_resistance == 0.0012
     assert s.battery.capacity == 3.2
-    assert s.battery.k_b == 0.00183
+    assert s.battery.k_b == PHYSICAL_K_B == 1.0 / 3600.0  # physical; the papers' is AUTHORS_K_B
     assert s.energy_model.order == 3
     assert s.planner.horizon == 6
     assert s.planner.path_parameter_bounds == [-1000.0, 0.0]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from eaplan_drake.energy.computation import LoadComputationTable
-from eaplan_drake.params import BatteryFault, Scenario
+from eaplan_drake.params import AUTHORS_K_B, BatteryFault, Scenario
 from eaplan_drake.planning import policies
 from eaplan_drake.planning.planner import PlannerDecision, PlannerPolicy
 from eaplan_drake.planning.relaxation import MissionProgram
@@ -17,6 +17,14 @@ from eaplan_drake.simulation import FlyHindsight, HindsightGrid, Simulate
 from eaplan_drake.studies.worlds import DrawWorld, WithPolicy
 
 TABLE = LoadComputationTable("pednet_jetson_nano")
+
+
+def _PapersScenario(name: str) -> Scenario:
+    """The default scenario with the papers' battery (3.2 Ah at the authors' scaling k_b =
+    0.00183, 7.19 Wh): the worlds below are tight on that energy."""
+    s = Scenario(name=name)
+    s.battery.k_b = AUTHORS_K_B
+    return s
 
 
 def _Short(policy="mpc", time_limit=40.0):
@@ -64,7 +72,7 @@ def test_a_slow_solver_gives_a_bit_identical_flight(monkeypatch):
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [2, 7, 13])
 def test_mpc_completes_seeded_worlds_that_the_lowest_plan_completes(seed):
-    world = DrawWorld(Scenario(name="w"), seed)
+    world = DrawWorld(_PapersScenario("w"), seed)
     log = Simulate(WithPolicy(world, "mpc"))
     s = log.summary
     assert s["status"] == "complete", s
@@ -82,7 +90,7 @@ def test_mpc_completes_a_tight_world_it_lost_when_the_warmup_flew_full_quality()
     # plan ends only 0.029 above the reserve. A 40 s warm-up at c1 = 0, c2 = 10 fps spent that
     # margin before the planner could act (reserve reached, with the fixed reserve); flying the
     # lowest plan during the warm-up keeps the mission feasible.
-    world = DrawWorld(Scenario(name="w"), 77)
+    world = DrawWorld(_PapersScenario("w"), 77)
     assert world.wind.speed > 9.0 and len(world.battery.faults) == 3
     s = Simulate(WithPolicy(world, "mpc", reserve="fixed")).summary
     assert s["status"] == "complete", s
@@ -93,7 +101,7 @@ def test_mpc_completes_a_tight_world_it_lost_when_the_warmup_flew_full_quality()
 
 @pytest.mark.slow
 def test_a_fault_that_makes_the_survey_infeasible_is_flagged_and_the_lowest_plan_flown():
-    scenario = Scenario(name="infeasible")
+    scenario = _PapersScenario("infeasible")
     scenario.battery.faults = [BatteryFault(time=150.0, soc_drop=0.45)]
     log = Simulate(scenario)
     s = log.summary
@@ -178,7 +186,7 @@ def test_hindsight_grid_is_ordered_by_quality():
 
 def _SmallWorld():
     """A short survey (3 repetitions) on a small battery: only some constant pairs complete."""
-    s = Scenario(name="small")
+    s = _PapersScenario("small")
     s.coverage.polygon = [[-120.0, 11.0], [-120.0, 146.0], [60.0, 146.0], [60.0, 11.0]]
     s.battery.capacity = 1.0
     s.battery.faults = [BatteryFault(time=60.0, soc_drop=0.12)]

@@ -15,4 +15,4 @@ diagram = builder.Build()
 simulator = Simulator(diagram)
 simulator.AdvanceTo(100.0)
 context = battery.GetMyContextFromRoot(simulator.get_context())
-print(f"SoC after 100 s: {battery.GetOutputPort('soc').Eval(context)[0]:.4f}")  # 0.8725
+print(f"SoC after 100 s: {battery.GetOutputPort('soc').Eval(context)[0]:.4f}")  # 0.9806

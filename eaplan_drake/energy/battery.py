@@ -10,8 +10,11 @@ charge b [-] falls as (Lemma III.3)
 
     ḃ = −k_b I(y) / Q_c   [1/s],
 
-with Q_c the nominal capacity [Ah] and k_b a coefficient [-] that absorbs the Ah-to-seconds
-conversion of the reference numbers (:ref:`design-reference-scenario`). V is constant here, so
+with Q_c the nominal capacity [Ah] and k_b the Ah-to-seconds conversion [h/s]: the physical 1/3600
+by default, the authors' scaling 0.00183 in the reference scenarios
+(:ref:`design-reference-scenario`). Q_c and V come from the pack's label
+(:meth:`BatteryParams.Capacity <eaplan_drake.params.BatteryParams.Capacity>`,
+:meth:`BatteryParams.Voltage <eaplan_drake.params.BatteryParams.Voltage>`). V is constant here, so
 under a constant load ḃ is constant and b(t) is linear in t (closed forms below).
 
 Brown-out. The circuit cannot deliver more than MaxDeliverablePower = V² / (4 R_r) [W] (the square
@@ -95,8 +98,8 @@ def SocDerivative(power, params: BatteryParams):
 
     Brown-out loads use the current at the maximum power (see :func:`RintCurrent`).
     """
-    current = RintCurrent(power, params.voltage, params.internal_resistance)
-    return -params.k_b * current / params.capacity
+    current = RintCurrent(power, params.Voltage(), params.internal_resistance)
+    return -params.k_b * current / params.Capacity()
 
 
 def SocDerivativeSlope(power, params: BatteryParams):
@@ -105,12 +108,12 @@ def SocDerivativeSlope(power, params: BatteryParams):
     I'(y) = 1/sqrt(V² − 4 R_r y) below :func:`MaxDeliverablePower`; 0 at
     and above it, where the current saturates at V/(2 R_r).
     """
-    V, R = float(params.voltage), float(params.internal_resistance)
+    V, R = params.Voltage(), float(params.internal_resistance)
     y = np.asarray(power, dtype=float)
     below = y < MaxDeliverablePower(V, R)
     disc = np.where(below, V * V - 4.0 * R * y, 1.0)
     slope = np.where(below, 1.0 / np.sqrt(disc), 0.0)
-    return -params.k_b * slope / params.capacity
+    return -params.k_b * slope / params.Capacity()
 
 
 def SocAfter(b0, power, duration, params: BatteryParams):
@@ -122,8 +125,8 @@ def SocAfter(b0, power, duration, params: BatteryParams):
     broadcast element-wise.
     """
     b0, _ = _Operand(b0)
-    current = RintCurrent(power, params.voltage, params.internal_resistance)
-    b, scalar = _Operand(b0 - current * (params.k_b / params.capacity * duration))
+    current = RintCurrent(power, params.Voltage(), params.internal_resistance)
+    b, scalar = _Operand(b0 - current * (params.k_b / params.Capacity() * duration))
     _, minimum, maximum = _SCALAR_OPS if scalar else _ARRAY_OPS
     return minimum(maximum(b, 0.0), 1.0)
 
@@ -167,7 +170,7 @@ def PowerBudget(b, params: BatteryParams):
 
     The papers call this a power; Q_c·V [Ah·V] is the budget at full charge, scaled by b.
     """
-    budget = np.multiply(b, params.capacity * params.voltage)
+    budget = np.multiply(b, params.Capacity() * params.Voltage())
     return float(budget) if budget.ndim == 0 else budget
 
 
@@ -186,21 +189,28 @@ class RintBatteryModel(BatteryModel):
         return SocAfter(soc, power, duration, self.params)
 
     def Current(self, power):
-        return RintCurrent(power, self.params.voltage, self.params.internal_resistance)
+        return RintCurrent(power, self.params.Voltage(), self.params.internal_resistance)
 
     def IsBrownout(self, power):
-        return IsBrownout(power, self.params.voltage, self.params.internal_resistance)
+        return IsBrownout(power, self.params.Voltage(), self.params.internal_resistance)
 
     def PowerBudget(self, soc):
         return PowerBudget(soc, self.params)
 
 
 def UsablePack(params: BatteryParams) -> BatteryParams:
-    """The pack as it is: ``params`` with the capacity health · Q_c [Ah] (and health 1);
-    ``params`` itself when its health is 1."""
+    """The pack as it is: ``params`` with the capacity health · Q_c [Ah] (and health 1), however
+    its label gave Q_c (``capacity``, ``capacity_mah`` or ``energy_wh``); ``params`` itself when
+    its health is 1."""
     if params.health == 1.0:
         return params
-    return dc.replace(params, capacity=params.capacity * params.health, health=1.0)
+    return dc.replace(
+        params,
+        capacity=params.Capacity() * params.health,
+        capacity_mah=0.0,
+        energy_wh=0.0,
+        health=1.0,
+    )
 
 
 # -- Drake system -------------------------------------------------------------------------------

@@ -25,12 +25,15 @@ import numpy as np
 
 from eaplan_drake.field.decompose import ChooseSweepDirection, Decompose, SweepChoice, SweepLines
 from eaplan_drake.field.readers import Field
-from eaplan_drake.field.route import MakeRoute, Route, RouteEnergy
+from eaplan_drake.field.route import Leg, MakeRoute, Route, RouteEnergy
 
 __all__ = [
+    "AirspaceSummary",
     "BestStaticPlan",
+    "EndsSummary",
     "FieldPlan",
     "FormatFieldPlan",
+    "WithHomeLegs",
     "LineSpacing",
     "LowestPlanEnergy",
     "LowestPlanRisk",
@@ -73,6 +76,7 @@ def MakeFieldPlan(
     theta_deg: float | None = None,
     cells: str = "best",
     min_line_length: float = 0.0,
+    start=None,
 ) -> FieldPlan:
     """The plan over ``field`` at line spacing x_d = ``spacing`` and turns of at least r_min =
     ``min_turning_radius`` [m]; θ = ``theta_deg`` [deg from east] or, when None, the direction
@@ -81,7 +85,8 @@ def MakeFieldPlan(
     that visit the nearest cell next, the plan's route then takes the shortest transits,
     :func:`~eaplan_drake.field.route.MakeRoute`); lines shorter than
     ``min_line_length`` [m] are left out (:func:`~eaplan_drake.field.route.CellSweepLines`: 4 ε
-    for a plan the sequencer flies)."""
+    for a plan the sequencer flies). With ``start`` [m] (home) the route enters the field at the
+    cell and end nearest to it (the sweep direction is still the shortest route's)."""
     kinds = {"convex": (True,), "monotone": (False,), "best": (True, False)}
     if cells not in kinds:
         raise ValueError(f"cells: must be one of {', '.join(kinds)}, got {cells!r}")
@@ -107,17 +112,37 @@ def MakeFieldPlan(
             choice = SweepChoice(d, len(lines), total, 1)
             chosen_by = "given (--sweep-deg)"
         route = MakeRoute(
-            choice.decomposition, spacing, min_turning_radius, min_line_length=min_line_length
+            choice.decomposition,
+            spacing,
+            min_turning_radius,
+            start,
+            min_line_length=min_line_length,
         )
         if best is None or route.Length() < best.route.Length() - 1e-9:
             best = FieldPlan(field, choice, route, chosen_by)
     return best
 
 
+def WithHomeLegs(route: Route, home) -> Route:
+    """``route`` flown from and back to ``home`` [m]: a straight leg (kind ``home``) from home to
+    the route's start and one from its end back home (straight: a lower bound of the climb-out
+    and the return, without the turns onto and off the route); ``home`` None: ``route``."""
+    if home is None:
+        return route
+    home = tuple(float(v) for v in home)
+    first, last = route.legs[0].start, route.legs[-1].end
+    legs = [Leg("home", home, first, math.dist(home, first)), *route.legs]
+    legs.append(Leg("home", last, home, math.dist(last, home)))
+    return dc.replace(route, legs=tuple(leg for leg in legs if leg.length > 0.0))
+
+
 def RoutePrediction(route: Route, scenario, computation_parameters, *, table=None) -> dict:
     """Time [s], energy [J], mean power [W] and SoC of flying ``route`` in still air at the
     constant ``computation_parameters`` c2 with ``scenario``'s vehicle, computation table and
-    battery (see the module docstring); ``soc_after_leg`` is the SoC at the end of each leg.
+    battery (see the module docstring); ``soc_after_leg`` is the SoC at the end of each leg,
+    ``final_soc_unclamped`` the final SoC had the pack no bottom (below 0 when it empties), and
+    ``reserve_reached`` where the SoC reaches the reserve (leg, path length [m], fraction of the
+    route, time [s]) or None.
     ``table``: the scenario's computation table, if already loaded."""
     from eaplan_drake.energy.computation import LoadComputationTable
     from eaplan_drake.flight.plant import MotionPowerCoefficients
@@ -132,12 +157,21 @@ def RoutePrediction(route: Route, scenario, computation_parameters, *, table=Non
     time, energy, mean = RouteEnergy(route, vehicle.airspeed, coefficients, g)
     battery = BATTERY_MODELS.Make(scenario.battery.model, scenario.battery)
     soc = float(scenario.battery.initial_soc)
+    reserve = float(scenario.battery.reserve_soc)
     p0, p2 = coefficients
-    after = []
-    for leg in route.legs:
+    after, unclamped, flown, reached = [], soc, 0.0, None
+    for k, leg in enumerate(route.legs):
         rate = vehicle.airspeed / leg.radius if leg.radius > 0.0 else 0.0
-        soc = battery.SocAfter(soc, p0 + p2 * rate * rate + g, leg.length / vehicle.airspeed)
+        power, duration = p0 + p2 * rate * rate + g, leg.length / vehicle.airspeed
+        soc = battery.SocAfter(soc, power, duration)
         after.append(float(soc))
+        drop = -float(battery.SocRate(power)) * duration  # the SoC rate depends on the load only
+        if reached is None and unclamped - drop < reserve and drop > 0.0:
+            at = flown + leg.length * (unclamped - reserve) / drop
+            reached = {"leg": k, "path_m": at, "fraction": at / route.Length(), "time_s": None}
+            reached["time_s"] = at / vehicle.airspeed
+        unclamped -= drop
+        flown += leg.length
     return {
         "time": time,
         "energy": energy,
@@ -146,19 +180,24 @@ def RoutePrediction(route: Route, scenario, computation_parameters, *, table=Non
         "computation_parameters": c2,
         "initial_soc": float(scenario.battery.initial_soc),
         "final_soc": soc,
-        "reserve_soc": float(scenario.battery.reserve_soc),
+        "final_soc_unclamped": unclamped,
+        "reserve_soc": reserve,
+        "reserve_reached": reached,
         "soc_after_leg": after,
     }
 
 
-def LowestPlanEnergy(plan: FieldPlan, scenario) -> dict:
+def LowestPlanEnergy(plan: FieldPlan, scenario, home=None) -> dict:
     """:func:`RoutePrediction` of ``plan``'s route at the table's lowest parameters c̲2: at
-    c̲1 the paper's static lowest plan, without wind and without the approach."""
+    c̲1 the paper's static lowest plan, without wind; from and back to ``home`` [m] when given
+    (:func:`WithHomeLegs`)."""
     from eaplan_drake.energy.computation import LoadComputationTable
 
     table = LoadComputationTable(scenario.computation.table)
-    prediction = RoutePrediction(plan.route, scenario, table.lower, table=table)
+    route = WithHomeLegs(plan.route, home)
+    prediction = RoutePrediction(route, scenario, table.lower, table=table)
     del prediction["soc_after_leg"]
+    prediction["home_legs_m"] = route.Length("home")
     return prediction
 
 
@@ -185,7 +224,7 @@ def PointOfNoReturn(route: Route, prediction: dict, scenario, home=None) -> dict
     return None
 
 
-def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
+def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11, home=None) -> dict:
     """The highest-quality static plan (c1, c2) that a stock autopilot could fly over ``plan``'s
     cells without the in-flight planner and still complete at the scenario's risk level: among
     ``grid_size`` values of c1 over ``planner.path_parameter_bounds`` (each with its own line
@@ -198,7 +237,8 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
     planner's definition, :mod:`eaplan_drake.planning.risk`): as τ ≥ τ_0 and m ≤ m_0 the lowest
     plan's failures are among the plan's, so it is P(S(τ) > m) − P(S(τ_0) > m_0) with S(τ) the
     total SoC drop in τ. Returns the plan's c1 [m²], c2, quality, prediction, margin, excess
-    risk, point of no return (:func:`PointOfNoReturn`) and how many grid plans were tried."""
+    risk, point of no return (:func:`PointOfNoReturn`) and how many grid plans were tried. With
+    ``home`` [m] every plan flies from and back to it (:func:`WithHomeLegs`)."""
     import itertools
 
     from eaplan_drake.energy.computation import LoadComputationTable
@@ -227,9 +267,10 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
             d, LineSpacing(coverage, c1), coverage.min_turning_radius,
             min_line_length=4.0 * coverage.trigger_radius,
         )  # fmt: skip
+        flown = WithHomeLegs(route, home)
         for c2 in itertools.product(*table.parameter_grids):
             tried += 1
-            p = RoutePrediction(route, scenario, c2, table=table)
+            p = RoutePrediction(flown, scenario, c2, table=table)
             margin = p["final_soc"] - reserve
             if lowest is None:  # c̲1, c̲2 come first
                 lowest = (p["time"], margin)
@@ -237,11 +278,11 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11) -> dict:
             u2 = np.divide(np.asarray(c2) - lower, span, out=np.zeros_like(span), where=span > 0)
             quality = 0.5 * (c1 - lo) / (hi - lo) + 0.5 * float(np.mean(u2)) if hi > lo else 0.0
             if margin >= 0.0 and excess <= eps and (best is None or quality > best[0] + 1e-12):
-                best = (quality, float(c1), [float(v) for v in c2], route, p, margin, excess)
+                best = (quality, float(c1), [float(v) for v in c2], flown, p, margin, excess)
     if best is None:
         return {"feasible": False, "risk": eps, "plans_tried": tried}
     quality, c1, c2, route, p, margin, excess = best
-    pnr = PointOfNoReturn(route, p, scenario)
+    pnr = PointOfNoReturn(route, p, scenario, home)
     if pnr is not None:
         pnr["lon_lat"] = [float(v) for v in plan.field.frame.ToLonLat([pnr["position_m"]])[0]]
     prediction = {k: v for k, v in p.items() if k != "soc_after_leg"}
@@ -310,6 +351,106 @@ def Summary(plan: FieldPlan, energy: dict | None = None) -> dict:
     return out
 
 
+def EndsSummary(field: Field, ends, altitude: float, ground_source: str | None) -> dict:
+    """Home, altitudes and the end of the missions as a JSON-ready dict (``ends`` a
+    :class:`~eaplan_drake.field.missions.MissionEnds` with its home set; ``ground_source``: where
+    the ground altitude came from, None when nothing gave it)."""
+    lon, lat = (float(v) for v in field.frame.ToLonLat(np.array([ends.home]))[0])
+    return {
+        "home_lon_lat": [lon, lat],
+        "home_m": [float(v) for v in ends.home],
+        "altitude_above_home_m": float(altitude),
+        "ground_alt_amsl_m": float(ends.ground_alt),
+        "ground_alt_from": ground_source,
+        "end": ends.end,
+    }
+
+
+def AirspaceSummary(airspace, check: dict) -> dict:
+    """The airspace (:class:`~eaplan_drake.field.airspace.Airspace`) and the route's check
+    against its exported fence as a JSON-ready dict."""
+    return {
+        "margin_m": airspace.margin,
+        "required": airspace.required,
+        "area_m2": float(airspace.polygon.area),
+        "vertices": len(airspace.polygon.exterior.coords) - 1,
+        "no_fly": len(airspace.no_fly),
+        "check": check,
+    }
+
+
+def _AirspaceLines(a: dict | None) -> list[str]:
+    """The ``airspace`` and ``fence check`` lines."""
+    if a is None:
+        return []
+    r, c = a["required"], a["check"]
+    return [
+        f"airspace        field + {a['margin_m']:.1f} m (smallest that works: lines "
+        f"{r['line_m']:.1f} m + turns {r['route_m'] - r['line_m']:.1f} m × {r['stretch']:.3f} in "
+        f"the wind + {r['allowance']:g} m tracking = {r['margin']:.1f} m); inclusion fence of "
+        f"{a['vertices']} vertices, {a['no_fly']} no-fly exclusions",
+        f"fence check     {c['outside']} of {c['points']} route points outside the exported "
+        f"fence, {c['in_no_fly']} in no-fly polygons",
+    ]
+
+
+def _MissionLines(m: dict | None) -> list[str]:
+    """The ``home`` and ``altitudes`` lines of the summary's ``mission``."""
+    if m is None:
+        return []
+    lines = []
+    end = "return to launch" if m["end"] == "rtl" else "approach and landing at home"
+    lines.append(
+        f"home            lon {m['home_lon_lat'][0]:.6f}, lat {m['home_lon_lat'][1]:.6f}: "
+        f"takeoff, survey, {end}"
+    )
+    ground = (
+        f"ground {m['ground_alt_amsl_m']:g} m AMSL (from {m['ground_alt_from']})"
+        if m["ground_alt_from"]
+        else "ground assumed at 0 m AMSL: give --ground-alt (Paparazzi's altitudes are AMSL)"
+    )
+    lines.append(
+        f"altitudes       {m['altitude_above_home_m']:g} m above home "
+        f"({m['ground_alt_amsl_m'] + m['altitude_above_home_m']:g} m AMSL); {ground}"
+    )
+    return lines
+
+
+def _LowestPlanLines(e: dict | None) -> list[str]:
+    """The ``lowest plan``, ``battery`` and ``reserve at`` lines of the lowest plan."""
+    if e is None:
+        return []
+    lines = []
+    margin = e["final_soc"] - e["reserve_soc"]
+    lines += [
+        f"lowest plan     {e['time']:.0f} s ({e['time'] / 60:.1f} min) in still air"
+        + (f" with {e['home_legs_m']:.0f} m to and from home" if e.get("home_legs_m") else "")
+        + f", {e['energy'] / 1e3:.1f} kJ, mean {e['mean_power']:.1f} W (computation "
+        f"{e['computation_power']:.1f} W at c2 = "
+        f"{', '.join(f'{c:g}' for c in e['computation_parameters'])})",
+        f"battery         SoC {e['initial_soc']:.3f} -> "
+        + (
+            f"{e['final_soc']:.3f}"
+            if e.get("final_soc_unclamped", 0.0) >= 0.0
+            else f"empty ({e['final_soc_unclamped']:.3f} had it no bottom)"
+        )
+        + f" (reserve {e['reserve_soc']:.2f}: margin "
+        + (
+            f"{margin:+.3f})"
+            if margin >= 0.0
+            else f"{e['final_soc_unclamped'] - e['reserve_soc']:+.3f}: below the reserve, "
+            "the survey does not fit)"
+        ),
+    ]
+    r = e.get("reserve_reached")
+    if r is not None:
+        lines.append(
+            f"reserve at      {r['time_s']:.0f} s, {r['path_m']:.0f} m along the route "
+            f"({100.0 * r['fraction']:.0f} % of it, leg {r['leg']}): the part that fits"
+        )
+    return lines
+
+
 def FormatFieldPlan(summary: dict) -> str:
     """The summary as the ``plan`` command prints it."""
     s = summary
@@ -331,19 +472,9 @@ def FormatFieldPlan(summary: dict) -> str:
         f"transits        {s['transits']} between cells, {s['transit_length_m']:.0f} m",
         f"path length     {s['path_length_m']:.0f} m",
     ]
-    e = s.get("lowest_plan")
-    if e is not None:
-        margin = e["final_soc"] - e["reserve_soc"]
-        lines += [
-            f"lowest plan     {e['time']:.0f} s ({e['time'] / 60:.1f} min) in still air, "
-            f"{e['energy'] / 1e3:.1f} kJ, mean {e['mean_power']:.1f} W (computation "
-            f"{e['computation_power']:.1f} W at c2 = "
-            f"{', '.join(f'{c:g}' for c in e['computation_parameters'])})",
-            f"battery         SoC {e['initial_soc']:.3f} -> {e['final_soc']:.3f} (reserve "
-            f"{e['reserve_soc']:.2f}: margin {margin:+.3f}"
-            + ("" if margin >= 0.0 else ": below the reserve, the survey does not fit")
-            + ")",
-        ]
+    lines += _MissionLines(s.get("mission"))
+    lines += _AirspaceLines(s.get("airspace"))
+    lines += _LowestPlanLines(s.get("lowest_plan"))
     r = s.get("lowest_plan_risk")
     if r is not None:
         ok = r["margin"] >= r["margin_at_risk"]
@@ -382,42 +513,75 @@ def FormatFieldPlan(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _Arc(leg, n: int = 48) -> np.ndarray:
-    c = np.asarray(leg.center)
-    a0 = math.atan2(leg.start[1] - c[1], leg.start[0] - c[0])
-    sign = 1.0 if leg.ccw else -1.0
-    a = a0 + sign * np.linspace(0.0, leg.angle, n)
-    return c + leg.radius * np.column_stack([np.cos(a), np.sin(a)])
+_ROUTE_STYLE = {
+    "line": ("survey lines", {"color": "#1f5fbf", "lw": 0.8}),
+    "turn": ("turns", {"color": "#e08a1e", "lw": 0.6}),
+    "transit": ("transits", {"color": "#444444", "lw": 0.8, "ls": "--"}),
+    "home": ("from and to home", {"color": "#7b3fa0", "lw": 0.9, "ls": ":"}),
+}
 
 
-def PlotFieldPlan(plan: FieldPlan):
-    """A matplotlib ``Figure`` of the field, its cells and the route in the local frame, with a
-    north arrow and a scale bar."""
-    from matplotlib.figure import Figure
+def _DrawField(ax, plan: FieldPlan) -> list:
+    """The field, its holes and its numbered cells; returns their legend handles."""
+    from matplotlib.patches import Patch
     from matplotlib.patches import Polygon as PolygonPatch
 
-    fig = Figure(figsize=(8.0, 7.0))
-    ax = fig.add_subplot()
     field = plan.field
     ax.add_patch(PolygonPatch(field.exterior, closed=True, fc="#e3f1d4", ec="#4d7a2a", lw=1.5))
+    handles = [Patch(fc="#e3f1d4", ec="#4d7a2a", label="field")]
     for h in field.holes:
         ax.add_patch(PolygonPatch(h, closed=True, fc="white", ec="#4d7a2a", lw=1.2, hatch="//"))
+    if field.holes:
+        handles.append(Patch(fc="white", ec="#4d7a2a", hatch="//", label="hole (not surveyed)"))
     for k, cell in enumerate(plan.choice.decomposition.cells):
         ax.add_patch(PolygonPatch(cell.vertices, closed=True, fill=False, ec="#888888", lw=0.8))
         cx, cy = np.mean(cell.vertices, axis=0)
         ax.text(cx, cy, str(k), color="#555555", fontsize=9, ha="center", va="center")
-    for leg in plan.route.legs:
-        if leg.kind == "line":
-            ax.plot(*np.array([leg.start, leg.end]).T, color="#1f5fbf", lw=0.8)
-        elif leg.kind == "turn":
-            ax.plot(*_Arc(leg).T, color="#e08a1e", lw=0.6)
-        elif leg.radius > 0.0:
-            ax.plot(*_Arc(leg).T, color="#444444", lw=0.8, ls="--")
-        else:
-            ax.plot(*np.array([leg.start, leg.end]).T, color="#444444", lw=0.8, ls="--")
-    ax.plot(*plan.route.legs[0].start, "o", color="#1f5fbf", ms=5, label="start")
-    ax.set_aspect("equal")
-    ax.autoscale_view()
+    return handles + [Patch(fill=False, ec="#888888", label="cells (visiting order)")]
+
+
+def _DrawRoute(ax, route: Route, home) -> list:
+    """Every leg of ``route`` (from and back to ``home`` [m] if given) and the start; returns
+    their legend handles."""
+    from matplotlib.lines import Line2D
+
+    from eaplan_drake.field.airspace import LegPoints
+
+    flown = WithHomeLegs(route, home)
+    for leg in flown.legs:
+        ax.plot(*LegPoints(leg, 5.0).T, **_ROUTE_STYLE[leg.kind][1])
+    handles = [
+        Line2D([], [], label=label, **style)
+        for kind, (label, style) in _ROUTE_STYLE.items()
+        if flown.Count(kind)
+    ]
+    start, label = (route.legs[0].start, "start") if home is None else (home, "home")
+    color = _ROUTE_STYLE["home" if home is not None else "line"][1]["color"]
+    ax.plot(*start, "o", color=color, ms=6)
+    return handles + [Line2D([], [], marker="o", ls="", ms=6, color=color, label=label)]
+
+
+def _DrawAirspace(ax, airspace) -> list:
+    """The inclusion fence and the no-fly polygons; returns their legend handles."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+    from matplotlib.patches import Polygon as PolygonPatch
+
+    if airspace is None:
+        return []
+    ax.plot(*np.asarray(airspace.polygon.exterior.coords).T, color="tab:red", lw=1.0, ls="--")
+    label = f"airspace, inclusion fence (field + {airspace.margin:.0f} m)"
+    handles = [Line2D([], [], color="tab:red", lw=1.0, ls="--", label=label)]
+    for zone in airspace.no_fly:
+        ring = np.asarray(zone.exterior.coords)
+        ax.add_patch(PolygonPatch(ring, closed=True, fc="#f4c7c3", ec="tab:red", hatch="xx"))
+    if airspace.no_fly:
+        handles.append(Patch(fc="#f4c7c3", ec="tab:red", hatch="xx", label="no-fly"))
+    return handles
+
+
+def _DrawScaleAndNorth(ax) -> None:
+    """A scale bar (bottom left) and a north arrow (top right) in the axes' current limits."""
     x0, x1 = ax.get_xlim()
     y0, y1 = ax.get_ylim()
     span = max(x1 - x0, y1 - y0)
@@ -437,6 +601,23 @@ def PlotFieldPlan(plan: FieldPlan):
         fontweight="bold",
         arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5},
     )
+
+
+def PlotFieldPlan(plan: FieldPlan, airspace=None, home=None):
+    """A matplotlib ``Figure`` of the field, its holes and cells, the whole route (lines, every
+    piece of the turns, transits, and with ``home`` [m] the legs from and to it), the
+    ``airspace`` (:class:`~eaplan_drake.field.airspace.Airspace`: inclusion fence and no-fly
+    polygons) if given, in the local frame, with a legend, a north arrow and a scale bar."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10.0, 7.0))
+    ax = fig.add_subplot()
+    handles = _DrawField(ax, plan)
+    handles += _DrawRoute(ax, plan.route, home)
+    handles += _DrawAirspace(ax, airspace)
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    _DrawScaleAndNorth(ax)
     d = plan.choice.decomposition
     ax.set_title(
         f"{len(d.cells)} cells, {plan.route.Count('line')} lines at {d.theta_deg:.1f}° from "
@@ -444,30 +625,49 @@ def PlotFieldPlan(plan: FieldPlan):
     )
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
-    ax.legend(loc="lower right", fontsize=8)
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     fig.tight_layout()
     return fig
 
 
 def SaveFieldPlan(
-    plan: FieldPlan, directory, *, summary: dict, altitude: float, cruise_speed: float
+    plan: FieldPlan,
+    directory,
+    *,
+    summary: dict,
+    altitude: float,
+    cruise_speed: float,
+    ends=None,
+    airspace=None,
+    missions: bool = True,
 ) -> list:
     """Writes ``directory`` as a whole (:func:`~eaplan_drake.files.ResultDirectory`): the three
-    missions (:func:`~eaplan_drake.field.missions.WriteMissions`), ``plan.png`` and
-    ``summary.json``; returns the paths written (in their final directory)."""
+    missions (:func:`~eaplan_drake.field.missions.WriteMissions`, between ``ends`` and inside
+    the ``airspace``'s fence, :class:`~eaplan_drake.field.airspace.Airspace`; left out when
+    ``missions`` is False), ``plan.png`` (:func:`PlotFieldPlan`) and ``summary.json``; returns
+    the paths written (in their final directory)."""
     from pathlib import Path
 
-    from eaplan_drake.field.missions import WriteMissions
+    from eaplan_drake.field.missions import MissionEnds, WriteMissions
     from eaplan_drake.files import AtomicWrite, ResultDirectory, StrictJson
 
+    ends = MissionEnds() if ends is None else ends
+    fence = None if airspace is None else airspace.Fence()
+    home = None if ends.home is None else ends.Home(plan.route)
     final = Path(directory)
     with ResultDirectory(final) as tmp:
-        written = list(
-            WriteMissions(
-                tmp, plan.route, plan.field, altitude=altitude, cruise_speed=cruise_speed
+        written = []
+        if missions:
+            written += WriteMissions(
+                tmp,
+                plan.route,
+                plan.field,
+                altitude=altitude,
+                cruise_speed=cruise_speed,
+                ends=ends,
+                fence=fence,
             ).values()
-        )
-        fig = PlotFieldPlan(plan)
+        fig = PlotFieldPlan(plan, airspace, home)
         written.append(
             AtomicWrite(tmp / "plan.png", lambda f: fig.savefig(f, format="png", dpi=120), True)
         )

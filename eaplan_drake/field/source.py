@@ -366,12 +366,14 @@ def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
     vertex, :func:`~eaplan_drake.field.readers.ReadField`; c1 over
     ``planner.path_parameter_bounds``), flown from ``vehicle.initial_position`` at
     ``vehicle.airspeed`` with the field gain ``guidance.k_e``, starting with ``initial_c1`` [m²].
-    Needs the ``[field]`` extra. Raises ValueError (or OSError for the file)."""
+    Needs the ``[field]`` extra. Raises ValueError (or OSError for the file), also when a given
+    ``coverage.airspace_margin`` is too small for the lowest plan's route or the route crosses
+    a no-fly hole (:func:`~eaplan_drake.field.airspace.MakeAirspace`)."""
     from eaplan_drake.field.readers import ReadField
 
     coverage = scenario.coverage
     field = ReadField(FieldPath(coverage.field))
-    return FieldCoverage(
+    source = FieldCoverage(
         field,
         coverage,
         start=scenario.vehicle.initial_position,
@@ -382,3 +384,10 @@ def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
         initial_heading_deg=scenario.vehicle.initial_heading_deg,
         cells=coverage.field_cells,
     )
+    if coverage.airspace_margin >= 0.0 or coverage.no_fly_holes:  # refused before the flight
+        from eaplan_drake.field.airspace import MakeAirspace
+
+        route = source.plan.route
+        no_fly = field.holes if coverage.no_fly_holes else ()
+        MakeAirspace(route, field, scenario, margin=coverage.airspace_margin, no_fly=no_fly)
+    return source

@@ -36,13 +36,41 @@ from eaplan_drake.output.plot_style import (
 )
 from eaplan_drake.params import Scenario, WindVector
 
-__all__ = ["DrawPlan", "DrawSurveyArea", "PlotPath"]
+__all__ = ["DrawPlan", "DrawSurveyArea", "PlotPath", "SurveyShapes"]
 
 
-def DrawSurveyArea(ax, polygon, start=None) -> None:
-    """The survey polygon [m] (grey) and the start position (black dot), equal axes."""
+def SurveyShapes(scenario: Scenario) -> dict:
+    """What a flight's figure draws under the path [m]: ``outline`` (the survey polygon, or a
+    ``coverage.field``'s outer boundary), its ``holes``, and for a field the ``airspace`` its
+    missions declare (:func:`~eaplan_drake.field.airspace.MakeAirspace`, home at the first
+    line's start; None when the ``[field]`` extra is missing or for the polygon survey)."""
+    shapes = {"outline": np.asarray(scenario.coverage.polygon, dtype=float), "holes": []}
+    shapes["airspace"] = None
+    if not scenario.coverage.field:
+        return shapes
+    from eaplan_drake.field.airspace import MakeAirspace
+    from eaplan_drake.field.source import MakeFieldPlanSource
+
+    source = MakeFieldPlanSource(scenario, float(scenario.planner.path_parameter_bounds[0]))
+    field, route = source.field, source.plan.route
+    airspace = MakeAirspace(route, field, scenario, home=route.legs[0].start)
+    shapes["outline"] = np.asarray(field.exterior, dtype=float)
+    shapes["holes"] = [np.asarray(h, dtype=float) for h in field.holes]
+    shapes["airspace"] = np.asarray(airspace.polygon.exterior.coords, dtype=float)
+    return shapes
+
+
+def DrawSurveyArea(ax, polygon, start=None, holes=(), airspace=None) -> None:
+    """The survey polygon [m] (grey) with its ``holes`` (white, hatched), the ``airspace`` ring
+    [m] (dashed) if given, and the start position (black dot), equal axes."""
     poly = np.asarray(polygon, dtype=float)
     ax.fill(poly[:, 0], poly[:, 1], color="0.92", zorder=0, label="survey area")
+    for h in holes:
+        h = np.asarray(h, dtype=float)
+        ax.fill(h[:, 0], h[:, 1], facecolor="white", edgecolor="0.6", hatch="//", zorder=0)
+    if airspace is not None:
+        a = np.asarray(airspace, dtype=float)
+        ax.plot(a[:, 0], a[:, 1], color="tab:red", lw=0.9, ls="--", zorder=1)
     if start is not None:
         ax.plot(*np.asarray(start, dtype=float), "o", color=COLORS["progress"], ms=5, label="start")
     ax.set_aspect("equal")
@@ -326,8 +354,9 @@ def PlotPath(
     arrow in a band above the flown area. Returns the path's ``LineCollection`` (for a shared
     colour bar)."""
     p = np.asarray(log["position"], dtype=float)
-    poly = np.asarray(scenario.coverage.polygon, dtype=float)
-    DrawSurveyArea(ax, poly, p[0])
+    shapes = SurveyShapes(scenario)
+    poly = shapes["outline"]
+    DrawSurveyArea(ax, poly, p[0], shapes["holes"], shapes["airspace"])
     value, label = _PathColour(log, scenario, colour_by)
     segments = np.stack([p[:-1], p[1:]], axis=1)
     lc = LineCollection(
@@ -345,6 +374,10 @@ def PlotPath(
         _ColourmapHandle([], [], label=f"flown path, colour: {label}"),
         Line2D([], [], marker="o", color=COLORS["progress"], ls="", ms=5, label="start"),
     ]
+    if shapes["holes"]:
+        handles.append(Patch(facecolor="white", edgecolor="0.6", hatch="//", label="hole"))
+    if shapes["airspace"] is not None:
+        handles.append(Line2D([], [], color="tab:red", lw=0.9, ls="--", label="airspace"))
     s = log.summary
     end = {"marker": "X", "color": COLORS["progress"], "mec": "white", "mew": 0.8, "ls": ""}
     ax.plot(*p[-1], ms=10, zorder=8, **end)
@@ -353,8 +386,8 @@ def PlotPath(
         handles += _PathMarks(ax, log, scenario)
     if s and not s.get("completed", True):
         handles += _Uncovered(ax, scenario, poly, p)
-    lo = np.min(np.vstack([p, poly]), axis=0)
-    hi = np.max(np.vstack([p, poly]), axis=0)
+    frame = np.vstack([p, poly] + ([] if shapes["airspace"] is None else [shapes["airspace"]]))
+    lo, hi = np.min(frame, axis=0), np.max(frame, axis=0)
     span = np.maximum(hi - lo, 1.0)
     # A band above the flown area for the wind arrow; the legend goes below the axes.
     ax.set_xlim(lo[0] - 0.05 * span[0], hi[0] + 0.05 * span[0])

@@ -371,7 +371,9 @@ def SaveFlightReplay(
         c1 = np.asarray(log["path_parameters"], dtype=float)[:, 0]
         c2 = np.asarray(log["computation_parameters"], dtype=float).reshape(len(log.times), -1)
         c1n, c2n = NormalisedParameters(log)
-        poly = np.asarray(scenario.coverage.polygon, dtype=float) / UNIT
+        from eaplan_drake.output.path_plot import SurveyShapes
+
+        poly = SurveyShapes(scenario)["outline"] / UNIT  # a field's outline, not the polygon
         _DrawArea(meshcat, scenario, poly)
         chunks = _DrawFlown(meshcat, p, SampleQuality(log))
         lo_xy, hi_xy = np.min(np.vstack([p, poly]), axis=0), np.max(np.vstack([p, poly]), axis=0)

@@ -43,20 +43,43 @@ def SaveFlownMissions(log: "FlightLog", scenario: Scenario, directory: str | Pat
     from the log (:func:`~eaplan_drake.flight.coverage.FlownStages`), their lines, turns and
     transits (:meth:`~eaplan_drake.field.source.FieldCoverage.FlownRoute`), as ``flown.plan``,
     ``flown.waypoints`` and ``flown.xml`` (:func:`~eaplan_drake.field.missions.WriteMissions`)
-    at :data:`FLOWN_ALTITUDE`, home at the start of the first line. Returns their paths."""
-    from eaplan_drake.field.missions import WriteMissions
+    at :data:`FLOWN_ALTITUDE` above the ground at ``coverage.ground_alt``, from and back to
+    ``coverage.home`` (or the first line's start), ending as ``coverage.mission_end``, inside
+    the airspace the flown route declares (:func:`~eaplan_drake.field.airspace.MakeAirspace`).
+    Returns their paths."""
+    import numpy as np
+
+    from eaplan_drake.field.airspace import MakeAirspace
+    from eaplan_drake.field.missions import MissionEnds, WriteMissions
     from eaplan_drake.field.source import MakeFieldPlanSource
     from eaplan_drake.flight.coverage import FlownStages
 
     c1 = log.signals["flown_path_parameter"][:, 0]
     plan = MakeFieldPlanSource(scenario, float(c1[0]))
     route = plan.FlownRoute(FlownStages(plan, log.signals["stage"][:, 0], c1))
+    coverage = scenario.coverage
+    home = None
+    if coverage.home:
+        home = tuple(float(v) for v in plan.field.frame.ToLocal(np.array([coverage.home]))[0])
+    ends = MissionEnds(home, float(coverage.ground_alt), coverage.mission_end)
+    extra = [ends.ApproachFix(route)] if ends.end == "land" else []
+    airspace = MakeAirspace(
+        route,
+        plan.field,
+        scenario,
+        margin=coverage.airspace_margin,
+        home=ends.Home(route),
+        extra_points=extra,
+        no_fly=plan.field.holes if coverage.no_fly_holes else (),
+    )
     written = WriteMissions(
         directory,
         route,
         plan.field,
         altitude=FLOWN_ALTITUDE,
         cruise_speed=scenario.vehicle.airspeed,
+        ends=ends,
+        fence=airspace.Fence(),
         stem="flown",
     )
     return list(written.values())

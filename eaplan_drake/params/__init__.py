@@ -42,6 +42,9 @@ from eaplan_drake.params.bounds import (
 )
 from eaplan_drake.params.checks import CheckType
 from eaplan_drake.params.energy import (
+    AUTHORS_K_B,
+    NOMINAL_CELL_VOLTAGE,
+    PHYSICAL_K_B,
     BatteryFault,
     BatteryParams,
     ComputationParams,
@@ -72,6 +75,7 @@ from eaplan_drake.params.planner import (
 from eaplan_drake.params.scenario import Scenario, SimulationParams
 
 __all__ = [
+    "AUTHORS_K_B",
     "BatteryFault",
     "BatteryParams",
     "C1_MAX_TOLERANCE",
@@ -106,6 +110,8 @@ __all__ = [
     "MIN_LOG_PERIOD",
     "MIN_MAX_STEP",
     "MIN_PLANNER_PERIOD",
+    "NOMINAL_CELL_VOLTAGE",
+    "PHYSICAL_K_B",
     "MotionPowerParams",
     "PlannerParams",
     "RATE_TOLERANCE",

@@ -86,18 +86,46 @@ class BatteryFault(_Params):
     """How much SoC is lost [-], in (0, 1] (0.06 is −6 %)."""
 
 
+PHYSICAL_K_B = 1.0 / 3600.0
+"""k_b of a real battery [h/s]: one ampere drains one ampere-hour in 3600 s."""
+
+AUTHORS_K_B = 0.00183
+"""The authors' scaling: the k_b of the papers' reference numbers [h/s], 6.59 × the physical
+1/3600 (a 3.2 Ah, 14.8 V pack then holds 7.19 Wh, not 47.4 Wh). The four reference scenarios
+(``plan_I``, ``plan_II``, ``plan_i``, ``plan_ii``) set it so that they reproduce the papers."""
+
+NOMINAL_CELL_VOLTAGE = 3.7
+"""Nominal voltage of one lithium-polymer cell [V]: an nS pack is n × 3.7 V."""
+
+_DEFAULT_CAPACITY = 3.2
+_DEFAULT_VOLTAGE = 14.8
+
+
 @dc.dataclass
 class BatteryParams(_Params):
-    """Rint equivalent circuit (paper 003 Lemma III.3): ḃ = −k_b I(y) / Q_c."""
+    """Rint equivalent circuit (paper 003 Lemma III.3): ḃ = −k_b I(y) / Q_c.
 
-    voltage: float = 14.8
-    """V, internal (open-circuit) voltage [V]."""
+    A pack is entered as on its label: a capacity (``capacity`` [Ah] or ``capacity_mah`` [mAh])
+    or an energy (``energy_wh`` [Wh]), and a voltage (``cells``, nS at
+    :data:`NOMINAL_CELL_VOLTAGE`, or ``voltage`` [V]). :meth:`Capacity` and :meth:`Voltage` are
+    the Q_c and V the model uses; the energy a full pack delivers is Q_c V / k_b [J]
+    (:meth:`Energy`)."""
+
+    voltage: float = _DEFAULT_VOLTAGE
+    """V, internal (open-circuit) voltage [V], unless ``cells`` gives it."""
     internal_resistance: float = 0.0012
     """R_r [Ω]."""
-    capacity: float = 3.2
-    """Q_c, nominal capacity [Ah]."""
-    k_b: float = 0.00183
-    """Battery coefficient [-]; absorbs the Ah-to-seconds conversion of the reference numbers."""
+    capacity: float = _DEFAULT_CAPACITY
+    """Q_c, nominal capacity [Ah], unless ``capacity_mah`` or ``energy_wh`` gives it."""
+    capacity_mah: float = 0.0
+    """Q_c as on the label [mAh]; 0 (default): not given."""
+    energy_wh: float = 0.0
+    """The pack's energy as on the label [Wh] (Q_c = energy_wh / V); 0 (default): not given."""
+    cells: int = 0
+    """Cells in series, nS (V = n × 3.7 V); 0 (default): not given, ``voltage`` holds."""
+    k_b: float = PHYSICAL_K_B
+    """Ah-to-seconds conversion [h/s]: the physical 1/3600 (default); the papers' reference numbers
+    use the authors' scaling :data:`AUTHORS_K_B` = 0.00183."""
     initial_soc: float = 1.0
     """b(0) [-], in (0, 1]."""
     reserve_soc: float = 0.30
@@ -113,11 +141,65 @@ class BatteryParams(_Params):
     health · Q_c, and its SoC is the fraction of that; the planner keeps the nominal Q_c.
     1 (default): the pack is as labelled."""
 
+    def ForgetLabel(self, given) -> None:
+        """Before a layer that gives the keys ``given`` (a mapping or key names) is loaded over
+        these parameters: a size it gives (``capacity``, ``capacity_mah``, ``energy_wh``)
+        replaces the size held here, a voltage (``cells``, ``voltage``) the voltage, so that
+        ``--set battery.capacity_mah=3300`` over a scenario that states ``capacity`` is the new
+        pack, not two sizes."""
+        given = set(given)
+        if given & {"capacity", "capacity_mah", "energy_wh"}:
+            self.capacity, self.capacity_mah, self.energy_wh = _DEFAULT_CAPACITY, 0.0, 0.0
+        if given & {"cells", "voltage"}:
+            self.cells, self.voltage = 0, _DEFAULT_VOLTAGE
+
+    def Voltage(self) -> float:
+        """V [V]: ``cells`` × :data:`NOMINAL_CELL_VOLTAGE` when ``cells`` is given, else
+        ``voltage``."""
+        return self.cells * NOMINAL_CELL_VOLTAGE if self.cells > 0 else float(self.voltage)
+
+    def Capacity(self) -> float:
+        """Q_c [Ah]: from ``capacity_mah``, ``energy_wh`` / V or ``capacity``, whichever is
+        given."""
+        if self.capacity_mah > 0.0:
+            return self.capacity_mah / 1000.0
+        if self.energy_wh > 0.0:
+            return self.energy_wh / self.Voltage()
+        return float(self.capacity)
+
+    def Energy(self) -> float:
+        """Energy of a full pack at the internal voltage, Q_c V / k_b [J] (3600 Q_c V with the
+        physical k_b)."""
+        return self.Capacity() * self.Voltage() / self.k_b
+
     def Validate(self, key: str = "battery") -> None:
         BATTERY_MODELS.Check(self.model, f"{key}.model")
         _positive(self.voltage, f"{key}.voltage")
         _positive(self.internal_resistance, f"{key}.internal_resistance")
         _positive(self.capacity, f"{key}.capacity")
+        _nonnegative(self.capacity_mah, f"{key}.capacity_mah")
+        _nonnegative(self.energy_wh, f"{key}.energy_wh")
+        _check(
+            _is_int(self.cells) and 0 <= self.cells <= 100,
+            f"{key}.cells",
+            f"must be an integer in [0, 100] (0: not given), got {self.cells!r}",
+        )
+        given = [name for name in ("capacity_mah", "energy_wh") if getattr(self, name) > 0.0]
+        if self.capacity != _DEFAULT_CAPACITY:
+            given.insert(0, "capacity")
+        _check(
+            len(given) <= 1,
+            f"{key}.{given[-1] if given else 'capacity'}",
+            f"give the pack's size once (capacity, capacity_mah or energy_wh), got "
+            f"{' and '.join(given)}",
+        )
+        _check(
+            self.cells == 0
+            or self.voltage in (_DEFAULT_VOLTAGE, self.cells * NOMINAL_CELL_VOLTAGE),
+            f"{key}.cells",
+            f"{self.cells}S is {self.cells * NOMINAL_CELL_VOLTAGE:g} V nominal but {key}.voltage "
+            f"is {self.voltage:g}; give one of the two",
+        )
         _positive(self.k_b, f"{key}.k_b")
         _in_range(self.health, f"{key}.health", MIN_BATTERY_HEALTH, 1.0)
         _in_range(self.initial_soc, f"{key}.initial_soc", 1e-9, 1.0)

@@ -244,6 +244,23 @@ class CoverageParams(_Params):
     trigger_radius: float = 2.0
     """ε, a stage switches when the aircraft is within this distance of its triggering point (or
     has passed it) [m], >= 0."""
+    ground_alt: float = 0.0
+    """Altitude of the ground at home, the launch point [m AMSL], for the missions a ``field``
+    survey exports (Paparazzi's altitudes are AMSL; MAVLink's are above home). Set it to the
+    field's elevation."""
+    home: list[float] = dc.field(default_factory=list)
+    """Home, the launch point of a ``field`` survey's missions, [λ, φ] [deg WGS84]; empty: the
+    first line's start."""
+    airspace_margin: float = -1.0
+    """M, how far beyond a ``field`` the declared airspace reaches [m], the missions' inclusion
+    geofence; < 0 (default): the smallest that works, derived from the turning radius, the line
+    spacing and the wind (:mod:`eaplan_drake.field.airspace`). A smaller value is refused."""
+    no_fly_holes: bool = False
+    """The ``field``'s holes are no-fly zones (exclusion geofences) instead of areas that are not
+    surveyed but may be overflown (default)."""
+    mission_end: str = "rtl"
+    """How a ``field`` survey's missions end: ``rtl`` (return to launch) or ``land`` (an approach
+    and a landing at home)."""
 
     def Validate(self, key: str = "coverage") -> None:
         _check(len(self.polygon) >= 3, f"{key}.polygon", "needs at least 3 vertices")
@@ -274,6 +291,21 @@ class CoverageParams(_Params):
             self.field_cells in ("best", "convex", "monotone"),
             f"{key}.field_cells",
             f"must be one of best, convex, monotone, got {self.field_cells!r}",
+        )
+        _in_range(self.ground_alt, f"{key}.ground_alt", -9000.0, 9000.0)
+        _check(
+            isinstance(self.airspace_margin, (int, float)) and -1e9 < self.airspace_margin < 1e5,
+            f"{key}.airspace_margin",
+            f"must be < 100000 m (< 0: derived), got {self.airspace_margin!r}",
+        )
+        if self.home:
+            lon, lat = _vector(self.home, f"{key}.home", 2)
+            _in_range(lon, f"{key}.home[0]", -180.0, 180.0)
+            _in_range(lat, f"{key}.home[1]", -90.0, 90.0)
+        _check(
+            self.mission_end in ("rtl", "land"),
+            f"{key}.mission_end",
+            f"must be one of rtl, land, got {self.mission_end!r}",
         )
 
 
