@@ -722,3 +722,18 @@ def test_a_full_disk_names_the_file_it_could_not_write(tmp_path):
         AtomicWrite(target, full, binary=False)
     assert info.value.errno == errno.ENOSPC and info.value.filename == str(target)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_field_flight_that_ends_before_its_first_line_keeps_its_log(tmp_path, capsys):
+    """A brown-out, an early fault or a short time limit before the first survey line: the log,
+    summary and figure are saved, and the missions as flown (nothing to export) are skipped with
+    a line in the summary."""
+    args = ["simulate", "funen", "--out", str(tmp_path)]
+    args += ["--set", "battery.faults=[{time: 5, soc_drop: 0.75}]"]
+    assert _Bounded(cli_main, args) == 0
+    out = capsys.readouterr().out
+    assert "not written     the missions as flown: the flight ended before its first" in out
+    saved = sorted(p.name for p in (tmp_path / "funen").iterdir())
+    assert saved == ["flight.png", "log.npz", "summary.json"]
+    summary = json.loads((tmp_path / "funen" / "summary.json").read_text())
+    assert summary["skipped_exports"] and summary["status"] == "reserve_reached"

@@ -22,15 +22,24 @@ def SaveFlight(
     ``flown.waypoints`` (WPL 110) and ``flown.xml`` (Paparazzi)
     (:func:`SaveFlownMissions`); with ``replay``, the Meshcat replay ``replay.html``
     (:func:`~eaplan_drake.output.replay.SaveFlightReplay`). Returns the paths of the figure, the
-    missions and the replay."""
+    missions and the replay.
+
+    Every flight that ran keeps its log, summary and figure: an export with nothing to export
+    (the missions of a field flight that ended before its first survey line) is skipped, and
+    ``summary["skipped_exports"]`` says why."""
     CheckType(log, FlightLog, "log", "a FlightLog (from Simulate)")
     CheckType(scenario, Scenario, "scenario", "a Scenario")
     final = Path(directory)
     with ResultDirectory(final) as tmp:
-        log.Save(tmp)
         written = [SaveFlightPlots(log, scenario, tmp)]
         if scenario.coverage.field:
-            written += SaveFlownMissions(log, scenario, tmp)
+            missions = SaveFlownMissions(log, scenario, tmp)
+            if not missions:
+                log.summary["skipped_exports"] = [
+                    "the missions as flown: the flight ended before its first survey line"
+                ]
+            written += missions
+        log.Save(tmp)
         if replay:
             from eaplan_drake.output.replay import SaveFlightReplay
 
@@ -46,7 +55,7 @@ def SaveFlownMissions(log: "FlightLog", scenario: Scenario, directory: str | Pat
     at :data:`FLOWN_ALTITUDE` above the ground at ``coverage.ground_alt``, from and back to
     ``coverage.home`` (or the first line's start), ending as ``coverage.mission_end``, inside
     the airspace the flown route declares (:func:`~eaplan_drake.field.airspace.MakeAirspace`).
-    Returns their paths."""
+    Returns their paths; none when the flight flew no survey line (nothing to export)."""
     import numpy as np
 
     from eaplan_drake.field.airspace import MakeAirspace
@@ -57,6 +66,8 @@ def SaveFlownMissions(log: "FlightLog", scenario: Scenario, directory: str | Pat
     c1 = log.signals["flown_path_parameter"][:, 0]
     plan = MakeFieldPlanSource(scenario, float(c1[0]))
     route = plan.FlownRoute(FlownStages(plan, log.signals["stage"][:, 0], c1))
+    if route.Count("line") == 0:
+        return []
     coverage = scenario.coverage
     home = None
     if coverage.home:

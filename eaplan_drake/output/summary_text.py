@@ -70,6 +70,8 @@ def FormatSummary(summary: dict) -> str:
         f"wall time       {summary['wall_time']:.1f} s "
         f"({summary['realtime_factor']:.0f}x real time)",
     ]
+    for skipped in summary.get("skipped_exports") or []:
+        lines.append(f"not written     {skipped}")
     if "hindsight" in summary:
         lines.append(f"hindsight       {len(summary['hindsight'])} static flights flown")
     return "\n".join(lines)
