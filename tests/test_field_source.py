@@ -261,3 +261,26 @@ def test_the_shipped_field_is_flown_with_the_default_planner(tmp_path):
     assert np.count_nonzero(~inside) == 0
     with pytest.raises(ValueError, match="goes from stage"):
         FlownStages(plan, [stages[0].index, stages[0].index + 5, 1], c1[:3])
+
+
+def test_a_multipolygon_field_is_flown_by_the_polygon_the_scenario_names(tmp_path):
+    import json
+    from pathlib import Path
+
+    from eaplan_drake.resolve import ResolveScenario
+
+    funen = json.loads(Path(FieldPath("funen_field")).read_text())
+    ring = funen["features"][0]["geometry"]["coordinates"]
+    shifted = [[[lon + 0.02, lat] for lon, lat in r] for r in ring]
+    path = tmp_path / "two.geojson"
+    path.write_text(json.dumps({"type": "MultiPolygon", "coordinates": [ring, shifted]}))
+    with pytest.raises((ScenarioError, ValueError), match=r"2 polygons .*coverage\.field_polygon"):
+        ResolveScenario(LoadNamedScenario("funen", [f"coverage: {{field: '{path}'}}"]))
+    for index in (0, 1):
+        layer = f"coverage: {{field: '{path}', field_polygon: {index}}}"
+        resolved = ResolveScenario(LoadNamedScenario("funen", [layer]))
+        assert resolved.plan.field.area == pytest.approx(
+            ResolveScenario(LoadNamedScenario("funen")).plan.field.area, rel=1e-3
+        )
+    with pytest.raises(ScenarioError, match=r"coverage\.field_polygon: must be an integer in \[-1"):
+        LoadNamedScenario("funen", ["coverage: {field_polygon: -2}"])

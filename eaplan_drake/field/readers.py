@@ -297,7 +297,7 @@ def ReadFieldRings(path, *, index: int | None = None):
             more = ", …" if len(polygons) > 5 else ""
             raise FieldError(
                 f"{path}: {len(polygons)} polygons ({names}{more}): choose one by its index "
-                f"(plan --polygon N, N in 0..{len(polygons) - 1})"
+                f"(plan --polygon N, or coverage.field_polygon: N, N in 0..{len(polygons) - 1})"
             )
         index = 0
     if not (isinstance(index, int) and 0 <= index < len(polygons)):

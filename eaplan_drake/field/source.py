@@ -372,7 +372,8 @@ def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
     from eaplan_drake.field.readers import ReadField
 
     coverage = scenario.coverage
-    field = ReadField(FieldPath(coverage.field))
+    index = None if coverage.field_polygon < 0 else int(coverage.field_polygon)
+    field = ReadField(FieldPath(coverage.field), index=index)
     source = FieldCoverage(
         field,
         coverage,

@@ -238,6 +238,9 @@ class CoverageParams(_Params):
     file (WGS84; holes allowed; needs the ``[field]`` extra), read in the local east-north frame
     of its first vertex ("" = ``polygon``; ``funen_field`` = the packaged illustrative field; a
     relative path is taken from the scenario's folder)."""
+    field_polygon: int = -1
+    """Which polygon of a ``field`` file holding several (0-based, in file order) is surveyed;
+    -1 (the default) for a file that holds one."""
     field_cells: str = "best"
     """How a ``field`` is split into cells: ``convex``, ``monotone`` (the classic boustrophedon
     cells) or ``best`` (whichever flies shorter)."""
@@ -286,6 +289,12 @@ class CoverageParams(_Params):
             not (self.field and self.plan_file),
             f"{key}.field",
             "give a field or a plan_file, not both",
+        )
+        _check(
+            _is_int(self.field_polygon) and -1 <= self.field_polygon <= 10_000,
+            f"{key}.field_polygon",
+            f"must be an integer in [-1, 10000] (-1: the file's only polygon), got "
+            f"{self.field_polygon!r}",
         )
         _check(
             self.field_cells in ("best", "convex", "monotone"),
