@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from eaplan_drake.cli import _FormatSummary
 from eaplan_drake.cli import main as cli_main
 from eaplan_drake.output.progress import FlightFraction, FlightProgress, FormatDuration, ProgressBar
+from eaplan_drake.output.summary_text import FormatSummary as _FormatSummary
 from eaplan_drake.params import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
