@@ -31,7 +31,7 @@ from eaplan_drake.flight.paths import PathFunction
 from eaplan_drake.flight.planfile import PlanFile
 from eaplan_drake.flight.plant import MaxHeadingRate
 from eaplan_drake.loading import ResolveFilePaths
-from eaplan_drake.params import MAX_SURVEY_LINES, Scenario
+from eaplan_drake.params import MAX_EXPECTED_DROPS, MAX_SURVEY_LINES, Scenario
 from eaplan_drake.registry import PLAN_SOURCES
 
 __all__ = [
@@ -130,7 +130,28 @@ def ResolveScenario(scenario: Scenario, base_dir: str | Path | None = None) -> R
     table = _Table(scenario)
     plan = _Plan(scenario, table)
     _CheckPlan(scenario, plan)
-    return Derive(scenario, table, plan)
+    resolved = Derive(scenario, table, plan)
+    _CheckExposure(resolved)
+    return resolved
+
+
+def _CheckExposure(resolved: ResolvedScenario) -> None:
+    """With the risk reserve, the survey at the lowest plan must be one the fault model's risk
+    tables can price: λ t(c̲1) at most ``MAX_EXPECTED_DROPS`` expected drops. Known before
+    take-off from the fault rate, the airspeed and the survey's size, so refused here naming
+    them, not found by the planner in flight."""
+    s = resolved.scenario
+    if s.planner.reserve != "risk" or s.planner.policy not in ("mpc", "static_takeoff"):
+        return
+    rate = float(s.planner.fault_model.rate)
+    t_low = float(min(resolved.coverage_time_bounds))
+    if rate * t_low > MAX_EXPECTED_DROPS:
+        raise ScenarioError(
+            f"planner.fault_model.rate: {rate:g}/s × {t_low:.0f} s of survey at the lowest plan "
+            f"(vehicle.airspeed = {s.vehicle.airspeed:g} m/s, the survey's size) = "
+            f"{rate * t_low:.1f} expected drops; the risk reserve prices at most "
+            f"{MAX_EXPECTED_DROPS:g} (a faster aircraft, a smaller survey or a lower rate)"
+        )
 
 
 def Derive(scenario: Scenario, table: ComputationTable, plan: PlanSource) -> ResolvedScenario:

@@ -266,6 +266,14 @@ CASES = [
         "planner: {fault_model: {sizes: exponential, size_mean: 1}}\n",
         "planner.fault_model.size_mean",
     ),
+    (
+        "cross",
+        "a survey longer than the risk tables price",
+        {},
+        "vehicle: {airspeed: 0.001}\nwind: {speed: 0}\n",
+        "planner.fault_model.rate: 0.003/s × 4077167 s of survey at the lowest plan "
+        "(vehicle.airspeed = 0.001 m/s",
+    ),
     # -- numerics ------------------------------------------------------------------------------
     (
         "numerics",
