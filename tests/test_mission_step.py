@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from eaplan_drake.energy.computation import LoadComputationTable
-from eaplan_drake.params import BatteryParams, PlannerParams
+from eaplan_drake.params import AUTHORS_K_B, BatteryParams, PlannerParams
 from eaplan_drake.planning.grid_search import DeterminedDecision
 from eaplan_drake.planning.margins import (
     FixedReserveMargin,
@@ -23,6 +23,8 @@ from eaplan_drake.planning.margins import (
 )
 from eaplan_drake.planning.mpc import MissionProblem
 
+BATTERY = BatteryParams(k_b=AUTHORS_K_B)
+"""The battery the golden states were computed with (the papers' pack, the authors' scaling)."""
 GOLDEN = json.loads((Path(__file__).parent / "golden" / "mission_steps.json").read_text())
 SETTINGS = {
     "fixed": {"reserve": "fixed", "fault_reserve_time": 0.0},
@@ -39,7 +41,7 @@ def problems():
         table = LoadComputationTable(name)
         for setting, planner in SETTINGS.items():
             out[name, setting] = MissionProblem(
-                PlannerParams(**planner), table, GOLDEN["order"], BatteryParams(), GOLDEN["grid"]
+                PlannerParams(**planner), table, GOLDEN["order"], BATTERY, GOLDEN["grid"]
             )
     return out
 
@@ -170,7 +172,7 @@ def test_a_state_the_risk_tables_cannot_price_is_infeasible_and_never_raises(pro
     # tables are unpriced, and excluded; the rest are priced as before
     planner = PlannerParams(reserve="risk")
     planner.fault_model.rate = 0.01
-    frequent = MissionProblem(planner, pb.table, GOLDEN["order"], BatteryParams(), GOLDEN["grid"])
+    frequent = MissionProblem(planner, pb.table, GOLDEN["order"], BATTERY, GOLDEN["grid"])
     exposure = frequent.risk_reserve.max_exposure
     assert exposure == 8192.0
     t_rem = np.linspace(300.0, exposure + 500.0, len(GOLDEN["grid"]))
