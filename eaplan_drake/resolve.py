@@ -31,12 +31,11 @@ from eaplan_drake.flight.paths import PathFunction
 from eaplan_drake.flight.planfile import PlanFile
 from eaplan_drake.flight.plant import MaxHeadingRate
 from eaplan_drake.loading import ResolveFilePaths
-from eaplan_drake.params import MAX_EXPECTED_DROPS, MAX_SURVEY_LINES, Scenario
+from eaplan_drake.params import MAX_EXPECTED_DROPS, MAX_PLAN_STAGES, MAX_SURVEY_LINES, Scenario
 from eaplan_drake.registry import PLAN_SOURCES
 
 __all__ = [
     "Derive",
-    "MAX_PLAN_STAGES",
     "MakePlanSource",
     "PlanSourceName",
     "PeakCircleHeadingRate",
@@ -47,8 +46,6 @@ __all__ = [
     "WIND_TURN_TOLERANCE",
 ]
 
-MAX_PLAN_STAGES = 10_000
-"""Largest number of stages of a plan [-] (bounds the sequencer's and planner's work)."""
 
 WIND_TURN_TOLERANCE = 1.25
 """How far above ψ̇_max the peak heading rate of a circle in wind may be [-]. At the downwind

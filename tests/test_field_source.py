@@ -284,3 +284,31 @@ def test_a_multipolygon_field_is_flown_by_the_polygon_the_scenario_names(tmp_pat
         )
     with pytest.raises(ScenarioError, match=r"coverage\.field_polygon: must be an integer in \[-1"):
         LoadNamedScenario("funen", ["coverage: {field_polygon: -2}"])
+
+
+def test_a_field_too_large_to_plan_is_refused_from_its_outline(tmp_path, monkeypatch):
+    """A 50 km field is refused from its outline and spacing before any stage is built."""
+    import json
+
+    from eaplan_drake.field import source
+    from eaplan_drake.resolve import ResolveScenario
+
+    lon, lat = 10.0, 55.3
+    square = [
+        [lon, lat],
+        [lon + 0.78, lat],
+        [lon + 0.78, lat + 0.45],
+        [lon, lat + 0.45],
+        [lon, lat],
+    ]
+    path = tmp_path / "big.geojson"
+    path.write_text(json.dumps({"type": "Polygon", "coordinates": [square]}))
+
+    def Built(*args, **kwargs):
+        raise AssertionError("the plan's stages were built before the refusal")
+
+    monkeypatch.setattr(source, "FieldCoverage", Built)
+    with pytest.raises(
+        ScenarioError, match=r"coverage\.field: the field is \d+ m across .* at most 2000"
+    ):
+        ResolveScenario(LoadNamedScenario("funen", [f"coverage: {{field: '{path}'}}"]))

@@ -193,7 +193,7 @@ def FieldFromLocal(
                 text = reason
         raise _Err(where, f"not a valid polygon: {text.strip()}")
     if min_width > 0.0:
-        width = _MinimumWidth(polygon)
+        width = MinimumWidth(polygon)
         if width < min_width:
             raise _Err(
                 where,
@@ -209,7 +209,7 @@ def FieldFromLocal(
     )
 
 
-def _MinimumWidth(polygon) -> float:
+def MinimumWidth(polygon) -> float:
     """The polygon's width [m] across its narrowest direction (that of its convex hull: the
     smallest distance between two parallel lines that enclose it)."""
     hull = np.asarray(polygon.convex_hull.exterior.coords)[:-1]

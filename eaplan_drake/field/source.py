@@ -60,6 +60,7 @@ from eaplan_drake.flight.coverage import PlanSource
 from eaplan_drake.flight.paths import Circle, Line
 from eaplan_drake.flight.stages import APPROACH, NUM_PRIMITIVES, MakeStage, Stage
 from eaplan_drake.packaged import PACKAGED_FIELDS, PackagedPath
+from eaplan_drake.params import MAX_SURVEY_LINES
 
 __all__ = ["CONTINUED", "FieldCoverage", "FieldPath", "MakeFieldPlanSource"]
 
@@ -360,6 +361,25 @@ class FieldCoverage(PlanSource):
         )
 
 
+def _CheckFieldSize(field, coverage, c1_bounds) -> None:
+    """ValueError before any stage is built when the field needs more than
+    :data:`~eaplan_drake.params.MAX_SURVEY_LINES` lines at the narrowest line spacing of
+    ``c1_bounds`` (at least its narrowest width / that spacing; every c1 of the bounds is
+    flown and checked): the rule of the Zamboni plan's own check, from the field's outline
+    alone."""
+    from eaplan_drake.field.readers import MinimumWidth
+
+    spacing = min(LineSpacing(coverage, float(c1)) for c1 in c1_bounds)
+    width = MinimumWidth(field.Polygon())
+    lines = math.floor(width / spacing)
+    if lines > MAX_SURVEY_LINES:
+        raise ValueError(
+            f"the field is {width:.0f} m across at its narrowest: at least {lines} survey lines "
+            f"at the narrowest spacing ({spacing:g} m; coverage.swath_spacing = "
+            f"{coverage.swath_spacing:g} m), at most {MAX_SURVEY_LINES} allowed"
+        )
+
+
 def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
     """The plan source of ``scenario``'s ``coverage.field`` (a GeoJSON, KML or QGroundControl
     file, or a packaged field's name, :func:`FieldPath`, read in the local frame of its first
@@ -374,6 +394,7 @@ def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
     coverage = scenario.coverage
     index = None if coverage.field_polygon < 0 else int(coverage.field_polygon)
     field = ReadField(FieldPath(coverage.field), index=index)
+    _CheckFieldSize(field, coverage, scenario.planner.path_parameter_bounds)
     source = FieldCoverage(
         field,
         coverage,

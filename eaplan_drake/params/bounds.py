@@ -31,6 +31,8 @@ MAX_COORDINATE = 1e7
 """Largest \\|x\\|, \\|y\\| of vehicle.initial_position [m] (the guidance overflows near 1e100)."""
 MAX_GUIDANCE_GAIN = 1e3
 """Largest guidance.k_e [1/m] (the reference is 0.05; 1e300 overflows the guidance)."""
+MAX_PLAN_STAGES = 10_000
+"""Largest number of stages of a plan [-] (bounds the sequencer's and planner's work)."""
 MAX_SURVEY_LINES = 2000
 """Largest width of the field across the lines / swath_spacing [-] (a 2000-line plan has ≈ 8000
 stages and takes ≈ 1 s to build)."""
