@@ -5,7 +5,7 @@ cross-field constraint, hand the systems checked values.
 Zamboni-like coverage), then checks what no single field can:
 
 - ``computation.initial_parameters``: one per table parameter, each inside the table's range;
-- the plan: at most :data:`MAX_PLAN_STAGES` stages; every triggering point p_Γ on (within
+- the plan: at most :data:`~eaplan_drake.params.bounds.MAX_PLAN_STAGES` stages; every triggering point p_Γ on (within
   ``max(ε, 1 m)`` of) its own path, ε = ``coverage.trigger_radius``;
 - ε small against the plan: at most a quarter of the shortest distance between consecutive
   triggering points (a larger ε switches stages before the aircraft gets there);
