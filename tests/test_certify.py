@@ -230,7 +230,8 @@ def test_until_decided_stops_at_the_first_batch_that_settles_the_claim(tmp_path,
         for keys, _ in StudyFlights(study):
             rows.append(dict(keys, id=f"{keys['world']}{keys['policy']}", status="complete"))
             rows[-1].update(completed=True, quality=0.5, final_margin=0.1, duration=300.0)
-            rows[-1].update(metric=1.0, wind_speed=3.0, total_fault_drop=0.0)
+            rows[-1].update(metric=1.0, wind_speed=3.0)
+            rows[-1]["faults.in_flight_total_drop"] = 0.0
         return rows
 
     args = argparse.Namespace(
@@ -292,3 +293,31 @@ def test_changing_worlds_draw_their_stated_ranges_and_keep_the_users_keys():
     assert {s.wind.staircase for s in flights} == {"estimated"}
     plain = CertifyStudy("survey", 60)
     assert not set(CHANGING_WORLD_RANGES) & set(plain.uniform)
+
+
+def test_the_worlds_fault_model_is_apart_from_the_belief_and_rows_count_in_flight_faults():
+    from eaplan_drake.params import BatteryFault, FaultModelParams, Scenario
+    from eaplan_drake.studies.certify import BeliefLine, CertifyStudy, WorldFaultModel
+    from eaplan_drake.studies.sweep import InFlightFaults
+
+    belief = FaultModelParams()
+    harsh = WorldFaultModel(belief, ["rate=0.006", "size_bounds=[0.05, 0.25]"])
+    assert (harsh.rate, harsh.size_bounds) == (0.006, [0.05, 0.25])
+    assert belief.rate == 0.003  # the belief is untouched
+    assert BeliefLine(belief, belief).startswith("faults: the worlds draw the planner's belief")
+    assert "the planner believes rate 0.003/s, sizes U[0, 0.15]" in BeliefLine(belief, harsh)
+    with pytest.raises(ValueError, match=r"^--world-fault-model: rate: must be in \[0, 0\.1\]"):
+        WorldFaultModel(belief, ["rate=-1"])
+    with pytest.raises(ValueError, match=r"^--world-fault-model: expected KEY=VALUE"):
+        WorldFaultModel(belief, ["speed=1"])
+    study = CertifyStudy("survey", 5, fault_model=harsh)
+    assert study.fault_model.rate == 0.006
+    s = Scenario()
+    s.battery.faults = [
+        BatteryFault(time=10.0, soc_drop=0.1),
+        BatteryFault(time=900.0, soc_drop=0.2),
+    ]
+    assert InFlightFaults(s, 400.0) == {
+        "faults.in_flight_count": 1,
+        "faults.in_flight_total_drop": 0.1,
+    }

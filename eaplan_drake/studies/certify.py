@@ -21,12 +21,14 @@ it bounds the rate, not any one mission. With no failure at all, n worlds bound 
 (:func:`~eaplan_drake.studies.statistics.WorldsNeeded`).
 """
 
+import copy
 import dataclasses as dc
 import math
 from pathlib import Path
 
 import numpy as np
 
+from eaplan_drake.errors import ScenarioError
 from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
 from eaplan_drake.params import FaultModelParams, Scenario
 from eaplan_drake.studies.bounds import (
@@ -50,6 +52,8 @@ __all__ = [
     "Certify",
     "CertifyReport",
     "CertifyStudy",
+    "BeliefLine",
+    "WorldFaultModel",
     "ExpectedPower",
     "ProposalFromPilot",
     "ProposalLine",
@@ -426,6 +430,47 @@ def CertifyReport(certificate: Certificate) -> str:
     return "\n".join(lines) + "\n"
 
 
+def WorldFaultModel(belief: FaultModelParams, assignments) -> FaultModelParams:
+    """The fault model the worlds draw from: the planner's ``belief`` (``planner.fault_model``)
+    with ``--world-fault-model KEY=VALUE`` assignments (``rate=0.006``,
+    ``size_bounds=[0.05,0.25]``, …) on a copy; a bad key or value is one line naming it."""
+    model = copy.deepcopy(belief)
+    keys = [f.name for f in dc.fields(FaultModelParams)]
+    for assignment in assignments or []:
+        key, sep, value = str(assignment).partition("=")
+        key = key.strip()
+        if not sep or key not in keys:
+            raise ValueError(
+                f"--world-fault-model: expected KEY=VALUE with KEY one of {', '.join(keys)}, "
+                f"got {assignment!r}"
+            )
+        try:
+            assignment = OverrideFromAssignment(f"planner.fault_model.{key}={value}")
+            layered = LayerScenario(Scenario(), [assignment]).planner.fault_model
+        except ScenarioError as e:  # the same checks as the scenario's, named for this option
+            raise ValueError(
+                "--world-fault-model: " + str(e).replace("planner.fault_model.", "")
+            ) from None
+        setattr(model, key, getattr(layered, key))
+    model.Validate("--world-fault-model")
+    return model
+
+
+def BeliefLine(belief: FaultModelParams, world: FaultModelParams) -> str:
+    """One line stating the worlds' fault model and the planner's belief (the same, or not)."""
+
+    def Text(m):
+        sizes = {
+            "uniform": f"U[{m.size_bounds[0]:g}, {m.size_bounds[1]:g}]",
+            "exponential": f"exponential of mean {m.size_mean:g}",
+        }.get(m.sizes, f"{m.sizes} {m.size_values}")
+        return f"rate {m.rate:g}/s, sizes {sizes}"
+
+    if world == belief:
+        return f"faults: the worlds draw the planner's belief ({Text(world)})"
+    return f"faults: the worlds draw {Text(world)}; the planner believes {Text(belief)}"
+
+
 def ProposalLine(proposal: FaultProposal | None, model: FaultModelParams, pilot: int) -> str:
     """One line saying how the worlds' faults were drawn."""
     if proposal is None:
@@ -501,6 +546,9 @@ def RunCertify(args, fly) -> int:
         overrides[key.strip()] = value
     scenario = LayerScenario(LoadNamedScenario(args.scenario), layers)  # layered once
     eps = scenario.planner.risk
+    world_model = WorldFaultModel(
+        scenario.planner.fault_model, getattr(args, "world_fault_model", [])
+    )
 
     def Make(worlds, proposal=None):
         return CertifyStudy(
@@ -513,6 +561,7 @@ def RunCertify(args, fly) -> int:
             proposal_from=args.pilot if weighted else 0,
             base=scenario,
             changing=getattr(args, "changing_worlds", False),
+            fault_model=world_model,
         )
 
     if getattr(args, "expect", None) is not None:
@@ -524,7 +573,11 @@ def RunCertify(args, fly) -> int:
             return 3
         proposal = ProposalFromPilot(args.sampling, Make(args.pilot), rows)
     model = Make(1).fault_model
-    line = ProposalLine(proposal, model, args.pilot)
+    line = (
+        ProposalLine(proposal, model, args.pilot)
+        + "\n"
+        + BeliefLine(scenario.planner.fault_model, model)
+    )
     print(line)
     anytime = weighted or args.until_decided
     first = (args.pilot if weighted else 0) + args.batch

@@ -58,6 +58,15 @@ def AddCertifyArguments(p) -> None:
         help="rates of every flight (default fast; paper = 100 Hz; scenario = its own)",
     )
     p.add_argument(
+        "--world-fault-model",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="the faults the worlds draw, apart from the planner's belief (planner.fault_model): "
+        "a key of the fault model on a copy of the belief, repeatable, e.g. rate=0.006 "
+        "size_bounds=[0.05,0.25]",
+    )
+    p.add_argument(
         "--changing-worlds",
         action="store_true",
         help="worlds that change in flight: gusts, a drifting wind, a pack below its label and "

@@ -70,6 +70,7 @@ __all__ = [
     "DrawFaults",
     "ClusterError",
     "FlyRow",
+    "InFlightFaults",
     "MAX_JOBS",
     "RunStudy",
     "StudyFlights",
@@ -136,8 +137,8 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
                     BatteryFault(time=float(t), soc_drop=float(max(d, 1e-6)))
                     for t, d in zip(times, drops, strict=True)
                 ]
-                varied["faults.count"] = n
-                varied["faults.total_drop"] = float(np.sum(drops))
+                varied["faults.drawn_count"] = n
+                varied["faults.drawn_total_drop"] = float(np.sum(drops))
             elif study.fault_proposal is not None and draw >= study.proposal_from:
                 from eaplan_drake.studies.sampling import DrawProposedFaults
 
@@ -146,12 +147,12 @@ def StudyFlights(study: Study, directory: Path | str = ".") -> list[tuple[dict, 
                     rng, study.fault_model, s.simulation.time_limit, proposal
                 )
                 varied.update(weight=weight, weight_bound=proposal.weight_bound, stratum=stratum)
-                varied["faults.count"] = len(s.battery.faults)
-                varied["faults.total_drop"] = float(sum(f.soc_drop for f in s.battery.faults))
+                varied["faults.drawn_count"] = len(s.battery.faults)
+                varied["faults.drawn_total_drop"] = float(sum(f.soc_drop for f in s.battery.faults))
             elif study.fault_model is not None:
                 s.battery.faults = DrawFaults(rng, study.fault_model, s.simulation.time_limit)
-                varied["faults.count"] = len(s.battery.faults)
-                varied["faults.total_drop"] = float(sum(f.soc_drop for f in s.battery.faults))
+                varied["faults.drawn_count"] = len(s.battery.faults)
+                varied["faults.drawn_total_drop"] = float(sum(f.soc_drop for f in s.battery.faults))
             s.random_seed = int(rng.integers(0, 2**31 - 1))
             s.name = f"{study.name}_w{world}"
             for policy in ([LOWEST] if study.lowest_reference else []) + list(study.policies):
@@ -210,7 +211,7 @@ def FlyRow(keys: dict, scenario: Scenario, save_logs: str = "") -> dict:
             failures=s["planner"].get("failures", 0),
             infeasible=s["planner"].get("infeasible", 0),
             wind_speed=scenario.wind.speed,
-            total_fault_drop=float(sum(f.soc_drop for f in scenario.battery.faults)),
+            **InFlightFaults(scenario, s["duration"]),
         )
         if save_logs:
             log.Save(Path(save_logs) / f"{row['id']}")
@@ -218,6 +219,18 @@ def FlyRow(keys: dict, scenario: Scenario, save_logs: str = "") -> dict:
         row.update(status="error", completed=False, error=f"{type(e).__name__}: {e}")
     row["wall_time"] = time.perf_counter() - t0
     return row
+
+
+def InFlightFaults(scenario: Scenario, duration: float) -> dict:
+    """The faults of ``scenario`` that fell inside its flight of ``duration`` [s]: their count
+    and total drop [-] (``faults.in_flight_count``, ``faults.in_flight_total_drop``). A study
+    draws faults over the whole ``simulation.time_limit`` (``faults.drawn_count``,
+    ``faults.drawn_total_drop``); a flight that ends earlier meets only these."""
+    inside = [f for f in scenario.battery.faults if f.time <= duration]
+    return {
+        "faults.in_flight_count": len(inside),
+        "faults.in_flight_total_drop": float(sum(f.soc_drop for f in inside)),
+    }
 
 
 def _RowOf(line: bytes) -> dict | None:
@@ -556,16 +569,17 @@ def StudyReport(out: str | Path) -> Path:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for ax, key, label in (
         (axes[0], "wind_speed", "wind speed [m/s]"),
-        (axes[1], "total_fault_drop", "total fault size [SoC]"),
+        (axes[1], "faults.in_flight_total_drop", "total size of the faults met in flight [SoC]"),
     ):
-        values = np.array([r[key] for r in ok])
+        # rows written before the in-flight count carry the drawn total under its old name
+        values = np.array([r.get(key, r.get("total_fault_drop", 0.0)) for r in ok])
         edges = np.unique(np.quantile(values, np.linspace(0, 1, 6))) if values.size else [0, 1]
         centres = 0.5 * (np.asarray(edges[1:]) + np.asarray(edges[:-1]))
         for p in policies:
             rp = [r for r in ok if r["policy"] == p]
             rate = []
             for a, b in itertools.pairwise(edges):
-                sel = [r for r in rp if a <= r[key] <= b]
+                sel = [r for r in rp if a <= r.get(key, r.get("total_fault_drop", 0.0)) <= b]
                 rate.append(np.mean([r["completed"] for r in sel]) if sel else np.nan)
             ax.plot(centres, rate, "o-", label=p)
         ax.set_xlabel(label)
