@@ -52,6 +52,7 @@ __all__ = [
     "Certify",
     "CertifyReport",
     "CertifyStudy",
+    "BatchLine",
     "BeliefLine",
     "WorldFaultModel",
     "ExpectedPower",
@@ -525,13 +526,9 @@ def _CheckCount(name: str, value, low: int, high: int) -> int:
     return value
 
 
-def RunCertify(args, fly) -> int:
-    """``eaplan-drake certify``: flies the worlds (``fly(study)`` → rows, or None when the
-    cluster did not fly them), prints the certificates and writes ``certify.md`` beside the
-    rows and the study report. Returns the exit status."""
-    from eaplan_drake.files import AtomicWrite
-    from eaplan_drake.studies.sweep import StudyReport
-
+def _CheckArguments(args) -> bool:
+    """Checks the counts and the seed of ``certify`` (one line naming the option); True when
+    the faults are drawn with weights (``--sampling`` other than plain)."""
     _CheckCount("--worlds", args.worlds, 1, MAX_WORLDS)
     _CheckCount("--batch", args.batch, 1, MAX_WORLDS)
     if isinstance(args.seed, bool) or not isinstance(args.seed, int) or args.seed < 0:
@@ -539,6 +536,29 @@ def RunCertify(args, fly) -> int:
     weighted = args.sampling != "plain"
     if weighted:
         _CheckCount("--pilot", args.pilot, 1, max(1, args.worlds - 1))
+    return weighted
+
+
+def BatchLine(worlds: int, certificates, most: int) -> str:
+    """The line ``certify --until-decided`` prints after a batch: each policy certified, refuted
+    or open, its anytime bound and the chance of a verdict within ``most`` worlds."""
+    states = [
+        "certified" if c.certified else "refuted" if c.refuted_at else "open" for c in certificates
+    ]
+    return f"{worlds} worlds: " + ", ".join(
+        f"{c.policy} {state} (bound {c.upper:.4f}; P(certified within {most}) {_Within(c, most)})"
+        for c, state in zip(certificates, states, strict=True)
+    )
+
+
+def RunCertify(args, fly) -> int:
+    """``eaplan-drake certify``: flies the worlds (``fly(study)`` → rows, or None when the
+    cluster did not fly them), prints the certificates and writes ``certify.md`` beside the
+    rows and the study report. Returns the exit status."""
+    from eaplan_drake.files import AtomicWrite
+    from eaplan_drake.studies.sweep import StudyReport
+
+    weighted = _CheckArguments(args)
     overrides, layers = {}, []
     for assignment in args.set:  # parsed once (a malformed --set is one line naming it)
         layers.append(OverrideFromAssignment(assignment))
@@ -588,19 +608,8 @@ def RunCertify(args, fly) -> int:
             return 3
         certificates = Certify(rows, eps, anytime=anytime)
         if args.until_decided:
-            states = [
-                "certified" if c.certified else "refuted" if c.refuted_at else "open"
-                for c in certificates
-            ]
-            print(
-                f"{worlds} worlds: "
-                + ", ".join(
-                    f"{c.policy} {state} (bound {c.upper:.4f}; P(certified within "
-                    f"{args.worlds}) {_Within(c, args.worlds)})"
-                    for c, state in zip(certificates, states, strict=True)
-                )
-            )
-            if "open" not in states:
+            print(BatchLine(worlds, certificates, args.worlds))
+            if all(c.certified or c.refuted_at for c in certificates):
                 break
     StudyReport(args.out)
     text = "".join(CertifyReport(c) for c in certificates)
