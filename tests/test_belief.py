@@ -9,9 +9,11 @@ import pytest
 from eaplan_drake.planning.belief import (
     PRIOR_DROPS,
     PRIOR_RATE,
+    SIZE_RESOLUTION,
     BeliefDropTail,
     BeliefExcessRisk,
     BeliefExcessRiskBounds,
+    DirichletDrops,
     ExponentialSizeBelief,
     FaultBelief,
     LearningSizes,
@@ -492,3 +494,73 @@ def test_excess_risk_vectorised_over_candidates_and_deterministic():
     for i in [0, 7, 23, 39]:
         single = BeliefExcessRisk(belief, tau_p[i], m_p[i], 300.0, 0.2)
         assert batch[i] == pytest.approx(single, abs=1e-12)
+
+
+# -- the learnt sizes the mpc's risk reserve flies with ---------------------------------------
+
+
+def test_dirichlet_sizes_on_the_grid_are_the_empirical_list():
+    """K = 2 around two equally likely sizes, one more observed: three equally likely sizes,
+    exactly (sizes on the grid are not rounded)."""
+    learnt = DirichletDrops(EmpiricalDrops((0.05, 0.1)), (0.2,), 2.0)
+    m = np.array([-0.1, 0.0123, 0.1235, 0.2771, 0.4567, 0.8123])
+    np.testing.assert_allclose(
+        learnt.sum_tail(6, m), EmpiricalDrops((0.05, 0.1, 0.2)).sum_tail(6, m), atol=1e-12
+    )
+    assert learnt.upper == 0.2
+
+
+def test_dirichlet_sizes_bracket_the_base_tails_by_the_grid():
+    """With nothing observed the grid tails Q̂_n of U[0, 0.15] lie between Q_n(m) and
+    Q_n(m − n h): conservative by at most n grid steps."""
+    base = UniformDrops(0.0, 0.15)
+    m = np.arange(1001) * SIZE_RESOLUTION
+    grid = DirichletDrops(base, (), 6.0).sum_tail(20, m)
+    exact = base.sum_tail(20, m)
+    shifted = np.stack(
+        [base.sum_tail(20, m - n * SIZE_RESOLUTION)[:, n] for n in range(21)], axis=1
+    )
+    assert np.all(grid >= exact - 1e-12)
+    assert np.all(grid <= shifted + 1e-12)
+
+
+def test_dirichlet_sizes_against_sampling():
+    """P(S(τ) > m) with the learnt sizes against 400 000 sampled worlds (binomial 4σ)."""
+    base, observed, k = UniformDrops(0.0, 0.15), (0.2, 0.05), 6.0
+    model = FaultModel(0.003, DirichletDrops(base, observed, k))
+    rng = np.random.default_rng(7)
+    worlds = 400_000
+    counts = rng.poisson(0.003 * 300.0, worlds)
+    total = np.zeros(worlds)
+    for i in range(counts.max()):
+        pick = rng.random(worlds) * (k + len(observed))
+        size = np.where(pick < k, rng.uniform(0.0, 0.15, worlds), np.where(pick < k + 1, 0.2, 0.05))
+        total += np.where(counts > i, size, 0.0)
+    for m in (0.05, 0.1, 0.2, 0.3):
+        p = float(TotalDropTail(model, 300.0, m))
+        sampled = float(np.mean(total > m))
+        assert abs(p - sampled) <= 4.0 * math.sqrt(p * (1.0 - p) / worlds) + 1e-4
+
+
+def test_dirichlet_sizes_learn_a_heavier_world():
+    """An observed size above the declared bounds raises every tail at once; below them lowers
+    the tail beyond the bounds' mean."""
+    base = UniformDrops(0.0, 0.15)
+    m = np.array([0.1, 0.2])
+    prior = DirichletDrops(base, (), 6.0).sum_tail(3, m)
+    heavy = DirichletDrops(base, (0.22,), 6.0).sum_tail(3, m)
+    assert np.all(heavy[:, 1:] >= prior[:, 1:])
+    assert heavy[1, 1] == pytest.approx(1.0 / 7.0, abs=1e-12)  # only the 0.22 exceeds 0.2
+
+
+@pytest.mark.parametrize(
+    "kwargs, key",
+    [
+        (dict(base=0.1, observed=(), prior_sizes=1.0), "DirichletDrops.base"),
+        (dict(base=UniformDrops(0, 0.1), observed=(0.0,), prior_sizes=1.0), "observed[0]"),
+        (dict(base=UniformDrops(0, 0.1), observed=(), prior_sizes=0.0), "prior_sizes"),
+    ],
+)
+def test_dirichlet_sizes_bad_input_names_the_field(kwargs, key):
+    with pytest.raises(ValueError, match=key.replace("[", r"\[").replace("]", r"\]")):
+        DirichletDrops(**kwargs)

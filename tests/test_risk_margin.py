@@ -211,21 +211,21 @@ def test_the_mission_budget_is_halved_after_each_drop_and_anchored_there(table, 
         if step.Lowest().feasible and o.soc > 0.5:
             break
     d = policy.Plan(o, policy.InitialMemory())
-    tail = RiskMemory(d.memory[-4:])
+    tail = RiskMemory(d.memory[-len(RiskMemory.get_fields()) :])
     assert tail.drops == 0 and step.risk_budget == 0.02
     assert tail.anchor_end == pytest.approx(o.time + step.t_rem[0])
     anchor_end = tail.anchor_end
     steady = dc.replace(o, time=o.time + h, soc=tail.predicted_soc)
     assert policy.Step(steady, d.memory).risk_budget == 0.02
     d = policy.Plan(steady, d.memory)
-    tail = RiskMemory(d.memory[-4:])
+    tail = RiskMemory(d.memory[-len(RiskMemory.get_fields()) :])
     assert tail.drops == 0 and tail.anchor_end == anchor_end  # the anchor holds
     dropped = dc.replace(o, time=o.time + 2 * h, soc=tail.predicted_soc - 0.05)
     step = policy.Step(dropped, d.memory)
     assert step.risk_budget == 0.01  # the next budget, anchored anew
     d = policy.Plan(dropped, d.memory)
-    tail = RiskMemory(d.memory[-4:])
-    assert tail.drops == 1
+    tail = RiskMemory(d.memory[-len(RiskMemory.get_fields()) :])
+    assert tail.drops == 1 and tail.size_1 == pytest.approx(0.05, abs=1e-3)  # its size, kept
     assert tail.anchor_end == pytest.approx(dropped.time + step.t_rem[0])
 
 

@@ -39,6 +39,26 @@ class FaultModelParams(_Params):
     """Mean of exponential sizes [-], in [1e-6, 1) (sizes above 1 empty the battery)."""
     size_values: list[float] = dc.field(default_factory=list)
     """The recorded sizes of an empirical distribution [-], each in (0, 1], at most 1000."""
+    prior_drops: float = 0.0
+    """α_0 [-]: with ``planner.reserve: risk``, how many drops the stated ``rate`` is worth: the
+    planner then holds the belief λ ~ Gamma(α_0, α_0/``rate``), updated by the records below and
+    in flight by every drop it detects and every second flown without one
+    (:class:`~eaplan_drake.planning.belief.RateBelief`), in [0, 1e6]; 0: a point rate (with
+    records, Jeffreys' 1/2)."""
+    recorded_drops: int = 0
+    """k: the drops a fleet recorded in ``recorded_hours``, in [0, 1e6]."""
+    recorded_hours: float = 0.0
+    """T: the flight time of the fleet's records [h], in [0, 1e6]; 0: no records."""
+    prior_sizes: float = 0.0
+    """K [-]: with ``planner.reserve: risk``, how many observed sizes the declared size model is
+    worth when the planner learns from the drops it detects in flight (a Dirichlet-process
+    predictive, :class:`~eaplan_drake.planning.belief.DirichletDrops`), in [0, 1000]; 0: the sizes
+    do not learn. Ignored by the worlds' own faults (``world_fault_model``)."""
+
+    def HoldsBelief(self) -> bool:
+        """Whether the planner holds a belief over the rate (``prior_drops`` or records) rather
+        than the point ``rate``."""
+        return self.prior_drops > 0.0 or self.recorded_hours > 0.0
 
     def Validate(self, key: str = "planner.fault_model") -> None:
         _in_range(self.rate, f"{key}.rate", 0.0, 0.1)
@@ -64,6 +84,20 @@ class FaultModelParams(_Params):
             len(self.size_values) <= 1000,
             f"{key}.size_values",
             f"at most 1000 values, got {len(self.size_values)}",
+        )
+        _in_range(self.prior_sizes, f"{key}.prior_sizes", 0.0, 1000.0)
+        _in_range(self.prior_drops, f"{key}.prior_drops", 0.0, 1e6)
+        _in_range(self.recorded_drops, f"{key}.recorded_drops", 0.0, 1e6)
+        _check(
+            float(self.recorded_drops) == int(self.recorded_drops),
+            f"{key}.recorded_drops",
+            f"must be a whole number of drops, got {self.recorded_drops:g}",
+        )
+        _in_range(self.recorded_hours, f"{key}.recorded_hours", 0.0, 1e6)
+        _check(
+            self.rate > 0.0 or not self.HoldsBelief(),
+            f"{key}.rate",
+            "must be > 0 [1/s] for a rate belief (prior_drops or recorded_hours > 0), got 0",
         )
         for i, v in enumerate(self.size_values):
             _in_range(v, f"{key}.size_values[{i}]", 1e-9, 1.0)

@@ -24,15 +24,19 @@ import math
 import numpy as np
 
 from eaplan_drake.params import MAX_EXPECTED_DROPS, PlannerParams
+from eaplan_drake.planning.belief import PRIOR_DROPS, DirichletDrops, RateBelief
 from eaplan_drake.planning.interpolation import Pchip, PchipSlopes
+from eaplan_drake.planning.risk import FaultModel
 from eaplan_drake.planning.risk_margin import (
     UNREACHABLE_MARGIN,
+    ExcessRiskTable,
     ExposureBucket,
     FaultModelFromParams,
     RiskTable,
 )
 
 __all__ = [
+    "NEGLIGIBLE_NODE",
     "FixedReserveMargin",
     "FloorMargin",
     "Margin",
@@ -42,6 +46,12 @@ __all__ = [
     "TimedReserveMargin",
     "UnpricedMargin",
 ]
+
+
+NEGLIGIBLE_NODE = 1e-6
+"""A rate node of a belief's quadrature with less weight than this [-] is left to the table's
+slack (counted as failure of every plan but the lowest: ≤ 1e-6 more excess risk per node, and
+the high rates' long count tails are not summed)."""
 
 
 class Margin:
@@ -183,9 +193,23 @@ class RiskReserve:
 
     def __init__(self, planner: PlannerParams):
         self.fault_model = FaultModelFromParams(planner.fault_model)
+        fault = planner.fault_model
+        self.rate_belief = None
+        """The belief over the rate before the flight (a
+        :class:`~eaplan_drake.planning.belief.RateBelief` when ``fault_model`` holds one, from
+        its ``prior_drops`` and records), or None: the point rate."""
+        if fault.HoldsBelief():
+            self.rate_belief = RateBelief.FromRecords(
+                int(fault.recorded_drops),
+                float(fault.recorded_hours) * 3600.0,
+                prior_rate=float(fault.rate),
+                prior_drops=float(fault.prior_drops) or PRIOR_DROPS,
+            )
+        self.prior_sizes = float(fault.prior_sizes)
+        """K [-], the sizes the declared size model is worth (0: the sizes do not learn)."""
         self.floor = float(planner.margin_floor)
         self._tables: dict = {}
-        rate = self.fault_model.rate
+        rate = self.fault_model.rate if self.rate_belief is None else self.rate_belief.mean
         bucket = math.inf
         if rate > 0.0:  # the largest table whose expected drops stay within the risk module's
             bucket = ExposureBucket(0.0)
@@ -197,16 +221,46 @@ class RiskReserve:
         """The longest exposure [s] the risk tables price (λ × it ≤ ``MAX_EXPECTED_DROPS``); a
         plan longer than this cannot be priced and is infeasible."""
 
-    def Table(self, exposure: float):
-        """The :class:`~eaplan_drake.planning.risk_margin.ExcessRiskTable` for exposures up to
-        ``exposure`` [s] (kept per bucket)."""
+    def Model(self, observed=()) -> FaultModel:
+        """The fault model after the drop sizes ``observed`` [-] detected in flight: the declared
+        one, or with ``prior_sizes`` K > 0 and some sizes observed, its rate with the learnt
+        sizes :class:`~eaplan_drake.planning.belief.DirichletDrops` (K, the observed sizes)."""
+        if not observed or self.prior_sizes <= 0.0:
+            return self.fault_model
+        sizes = DirichletDrops(self.fault_model.sizes, tuple(observed), self.prior_sizes)
+        return FaultModel(self.fault_model.rate, sizes)
+
+    def Table(self, exposure: float, observed=(), flown: float = 0.0, drops: int = 0):
+        """The :class:`~eaplan_drake.planning.risk_margin.ExcessRiskTable` of :meth:`Model`
+        (``observed``) for exposures up to ``exposure`` [s] (kept per bucket and sizes); with a
+        rate belief, priced under it after ``flown`` [s] with ``drops`` detected (a table of the
+        step: its quadrature nodes, those the tables cannot hold left to the table's slack)."""
         bucket = ExposureBucket(float(exposure))
-        table = self._tables.get(bucket)
+        model = self.Model(observed)
+        if self.rate_belief is not None:
+            belief = self.rate_belief.Update(max(float(flown), 0.0), int(drops))
+            nodes, weights = belief.Quadrature()
+            keep = (nodes * bucket <= MAX_EXPECTED_DROPS) & (weights >= NEGLIGIBLE_NODE)
+            model = FaultModel(belief.mean, model.sizes)
+            return ExcessRiskTable(model, bucket, rates=(nodes[keep], weights[keep]))
+        key = (bucket, model)
+        table = self._tables.get(key)
         if table is None:
-            table = self._tables[bucket] = RiskTable(self.fault_model, bucket)
+            table = self._tables[key] = RiskTable(model, bucket)
         return table
 
-    def Margin(self, rate, times, lowest_time, lowest_margin, budget, anchor=None) -> RiskMargin:
+    def Margin(
+        self,
+        rate,
+        times,
+        lowest_time,
+        lowest_margin,
+        budget,
+        anchor=None,
+        observed=(),
+        flown: float = 0.0,
+        drops: int = 0,
+    ) -> RiskMargin:
         """The step's :class:`RiskMargin`.
 
         Args:
@@ -218,6 +272,10 @@ class RiskReserve:
             budget: ε_k [-].
             anchor: (τ_a [s] still to fly, m_a [-]), the lowest plan where the budget opened: the
                 excess is measured from min(P(F_0), P(S(τ_a) > m_a)); None: from P(F_0).
+            observed: the drop sizes [-] detected so far (the sizes learn from them, see
+                :meth:`Model`).
+            flown: the time flown [s] (a rate belief learns from it, see :meth:`Table`).
+            drops: the drops detected so far (likewise).
         """
         times = np.asarray(times, dtype=float)
         if np.all(times[1:] >= times[:-1]):  # the staircase ascends: np.unique without its sort
@@ -237,7 +295,7 @@ class RiskReserve:
                 "the fault model's tables price",
             )
         priced = times <= self.max_exposure
-        table = self.Table(float(times[priced][-1]))
+        table = self.Table(float(times[priced][-1]), observed, flown, drops)
         baseline = None
         if anchor is not None:
             tau_a, m_a = anchor

@@ -200,7 +200,9 @@ class MissionProblem:
 
     # -- a step --------------------------------------------------------------------------------
 
-    def Step(self, observation, budget: float | None = None, anchor=None) -> "MissionStep":
+    def Step(
+        self, observation, budget: float | None = None, anchor=None, observed=(), drops: int = 0
+    ) -> "MissionStep":
         """The :class:`MissionStep` of a
         :class:`~eaplan_drake.planning.planner.PlannerObservation` (see :meth:`StepFromState`)."""
         o = observation
@@ -213,6 +215,9 @@ class MissionProblem:
             o.computation_parameters,
             budget=budget,
             anchor=anchor,
+            observed=observed,
+            flown=o.time,
+            drops=drops,
         )
 
     def StepFromState(
@@ -226,11 +231,16 @@ class MissionProblem:
         *,
         budget: float | None = None,
         anchor=None,
+        observed=(),
+        flown: float = 0.0,
+        drops: int = 0,
     ) -> "MissionStep":
         """The step of the state q̂ [W], Var(α̂0) [W²], b0 [-], T [s], t_rem at the grid [s] and
         c_now; with ``reserve: risk`` its excess-risk ``budget`` ε_k [-] (None: ``planner.risk``)
         and the mission's ``anchor`` (τ_a [s] still to fly, m_a [-]): the lowest plan as it
-        stood when the budget opened (None: the lowest plan of this state)."""
+        stood when the budget opened (None: the lowest plan of this state), the drop sizes
+        ``observed`` [-] so far, the time ``flown`` [s] and the ``drops`` detected (the risk
+        reserve's belief learns from them)."""
         prediction = StepPrediction(
             self, energy_coefficients, soc, period, remaining_time, computation_parameters
         )
@@ -251,7 +261,9 @@ class MissionProblem:
             - rate * t_low
         )
         times = np.minimum(prediction.t_rem, (prediction.n - 2) * self.step_length)
-        margin = self.risk_reserve.Margin(rate, times, t_low, m_0, budget, anchor)
+        margin = self.risk_reserve.Margin(
+            rate, times, t_low, m_0, budget, anchor, observed, flown, drops
+        )
         return MissionStep(self, prediction, margin)
 
 

@@ -38,6 +38,7 @@ from pydrake.common.containers import namedview
 
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
+from eaplan_drake.planning.belief import SIZE_RESOLUTION
 from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
 from eaplan_drake.planning.mpc import MissionProblem, MissionStep
 from eaplan_drake.planning.paper import Planner
@@ -48,6 +49,7 @@ from eaplan_drake.registry import POLICIES
 
 __all__ = [
     "FALLBACK_DROP",
+    "LEARNT_SIZES",
     "GreedyAuthorsPolicy",
     "GreedyPolicy",
     "MakeGreedyAuthorsPolicy",
@@ -193,12 +195,22 @@ is a drop: the policy opens the next, halved, risk budget anchored at that state
 assumes, :mod:`eaplan_drake.planning.risk`)."""
 
 
-RiskMemory = namedview("RiskMemory", ["predicted_soc", "drops", "anchor_end", "anchor_margin"])
+LEARNT_SIZES = 4
+"""How many detected drop sizes the mpc's memory keeps for its learnt sizes (``prior_sizes``):
+the first ones of a flight; later drops still halve the budget."""
+
+RiskMemory = namedview(
+    "RiskMemory",
+    ["predicted_soc", "drops", "anchor_end", "anchor_margin"]
+    + [f"size_{i + 1}" for i in range(LEARNT_SIZES)],
+)
 """The tail of :class:`MpcPolicy`'s memory with ``reserve: risk`` (after the warm start):
 ``predicted_soc`` b̂ [-], the SoC the last step predicted for now (:data:`UNSET` before the first
 step); ``drops``, the drops detected so far; ``anchor_end`` [s], the time at which the lowest plan
 of the state where the current budget opened ends (:data:`UNSET` until a step sets it: at the
-first step, and after each drop); ``anchor_margin`` m_a [-], that plan's fault-free margin."""
+first step, and after each drop); ``anchor_margin`` m_a [-], that plan's fault-free margin;
+``size_1`` … the sizes of the first :data:`LEARNT_SIZES` drops [-] (b̂ − b at the drop, rounded
+up to :data:`~eaplan_drake.planning.belief.SIZE_RESOLUTION`; 0 until seen)."""
 
 UNSET = -1.0
 """The value of a :data:`RiskMemory` entry nothing has set yet (times and SoCs are ≥ 0)."""
@@ -250,12 +262,17 @@ class MpcPolicy(PlannerPolicy):
         tail = RiskMemory(np.array(memory[self._warm_size :], dtype=float))
         # (UNSET, or a prediction below empty: nothing to compare with)
         if tail.predicted_soc >= 0.0 and o.soc < tail.predicted_soc - FALLBACK_DROP:
-            # a drop: a new, halved budget, anchored at this state
+            # a drop: a new, halved budget, anchored at this state; its size is remembered
+            if tail.drops < LEARNT_SIZES:
+                size = math.ceil(round((tail.predicted_soc - o.soc) / SIZE_RESOLUTION, 9))
+                setattr(tail, f"size_{int(tail.drops) + 1}", min(size * SIZE_RESOLUTION, 1.0))
             tail.drops, tail.anchor_end = tail.drops + 1.0, UNSET
         anchor = None
         if tail.anchor_end >= 0.0:
             anchor = (tail.anchor_end - float(o.time), tail.anchor_margin)
-        return pb.Step(o, self.Budget(tail.drops), anchor), tail
+        seen = range(1, min(int(tail.drops), LEARNT_SIZES) + 1)
+        observed = tuple(float(getattr(tail, f"size_{i}")) for i in seen)
+        return pb.Step(o, self.Budget(tail.drops), anchor, observed, int(tail.drops)), tail
 
     def Plan(self, observation, memory) -> PlannerDecision:
         o, pb = observation, self.problem

@@ -385,6 +385,12 @@ class EmpiricalDrops:
 _SIZE_KINDS = (UniformDrops, ExponentialDrops, EmpiricalDrops)
 
 
+def _IsSizeModel(sizes) -> bool:
+    """Whether ``sizes`` answers what a size model must (its tails Q_n and its largest size):
+    the learnt predictive of :mod:`eaplan_drake.planning.belief` does."""
+    return callable(getattr(sizes, "sum_tail", None)) and hasattr(sizes, "upper")
+
+
 @dc.dataclass(frozen=True)
 class FaultModel:
     """Battery faults: drops as a Poisson process of ``rate`` λ >= 0 [1/s] with i.i.d. ``sizes``."""
@@ -395,10 +401,10 @@ class FaultModel:
     def __post_init__(self):
         rate = CheckNumber("FaultModel.rate", self.rate, 0.0, math.inf, "[1/s]", open_high=True)
         object.__setattr__(self, "rate", rate)
-        if not isinstance(self.sizes, _SIZE_KINDS):
+        if not (isinstance(self.sizes, _SIZE_KINDS) or _IsSizeModel(self.sizes)):
             raise ValueError(
-                "FaultModel.sizes: must be UniformDrops, ExponentialDrops or EmpiricalDrops, "
-                f"got {type(self.sizes).__name__}"
+                "FaultModel.sizes: must be UniformDrops, ExponentialDrops, EmpiricalDrops or "
+                f"a learnt size model, got {type(self.sizes).__name__}"
             )
 
 

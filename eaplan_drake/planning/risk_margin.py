@@ -130,11 +130,32 @@ def _Counts(mean: float) -> int:
     return PoissonCutoff(mean) + 1
 
 
+@functools.lru_cache(maxsize=32)
+def _SizeTails(sizes, counts: int, margin_step: float) -> np.ndarray:
+    """Q_n(m) of ``sizes`` for n = 0..``counts`` on the margins 0, h, … 1 (h = ``margin_step``),
+    shape (counts + 1, K), values below 1e-150 set to 0 (kept: tables of one size model share
+    it)."""
+    margins = np.arange(int(round(1.0 / margin_step)) + 1) * margin_step
+    q = np.asarray(sizes.sum_tail(counts, margins))  # (K, counts + 1)
+    q = np.ascontiguousarray(np.where(q < _TINY, 0.0, q).T)
+    q.flags.writeable = False
+    return q
+
+
 class ExcessRiskTable:
     """R(p) and m_req for one fault model, from Q_n tabulated on margins 0, h, 2h, … 1
-    (``margin_step`` h [-]) for exposures up to ``max_exposure`` [s]."""
+    (``margin_step`` h [-]) for exposures up to ``max_exposure`` [s].
 
-    def __init__(self, model: FaultModel, max_exposure: float, margin_step: float = 1e-3):
+    ``rates``: a belief over the rate as a quadrature, (nodes λ_i [1/s], weights w_i [-] summing to
+    at most 1, see :meth:`~eaplan_drake.planning.belief.RateBelief.Quadrature`); every probability
+    is then the mixture Σ_i w_i P(· | λ_i) (the u-quadrature repeated for each node), and the
+    weight missing from the nodes (1 − Σ w_i, rates too high to tabulate) counts as failure of
+    every plan but the lowest: conservative. None: the model's point rate (one node of weight 1).
+    """
+
+    def __init__(
+        self, model: FaultModel, max_exposure: float, margin_step: float = 1e-3, rates=None
+    ):
         if not (math.isfinite(max_exposure) and max_exposure > 0.0):
             raise ValueError(f"max_exposure: must be finite and > 0 [s], got {max_exposure!r}")
         if not (1e-5 <= margin_step <= 0.01):
@@ -142,33 +163,59 @@ class ExcessRiskTable:
         self.model = model
         self.max_exposure = float(max_exposure)
         self.step = float(margin_step)
-        self.counts = _Counts(model.rate * self.max_exposure) + 1
-        margins = np.arange(int(round(1.0 / self.step)) + 1) * self.step
-        q = np.asarray(model.sizes.sum_tail(self.counts, margins))  # (K, counts + 1)
-        self.q = np.ascontiguousarray(np.where(q < _TINY, 0.0, q).T)  # (counts + 1, K)
+        self.point = rates is None
+        if self.point:
+            self.nodes, self.weights, self.slack = np.array([model.rate]), np.ones(1), 0.0
+            self.u, self.w, self.row = _U, _W, _ROW
+        else:
+            self.nodes = np.asarray(rates[0], dtype=float)
+            self.weights = np.asarray(rates[1], dtype=float)
+            self.slack = max(0.0, 1.0 - float(self.weights.sum()))
+            size = self.nodes.size
+            self.u, self.w = np.tile(_U, size), np.tile(_W, size)
+            self.row = np.arange(self.u.size)
+        self.top_rate = float(self.nodes.max())
+        self.counts = _Counts(self.top_rate * self.max_exposure) + 1
+        # a belief's counts move with it: its tails are kept for counts rounded up to 32s
+        kept = self.counts if self.point else -(-self.counts // 32) * 32
+        self.q = _SizeTails(model.sizes, kept, self.step)[: self.counts + 1]  # (counts + 1, K)
         self._mixed_key, self._mixed = None, None
 
     def _CountsFor(self, *means) -> int:
         largest = max(float(np.max(np.asarray(m), initial=0.0)) for m in means)
-        if largest > self.model.rate * self.max_exposure * (1.0 + 1e-9):
+        if largest > self.top_rate * self.max_exposure * (1.0 + 1e-9):
             raise ValueError(
                 f"exposure: at most {self.max_exposure:g} s for this table, got "
-                f"{largest / self.model.rate:g} s"
+                f"{largest / self.top_rate:g} s"
             )
         return min(_Counts(largest), self.counts)
 
+    def _TotalDropTail(self, tau_0, m_0):
+        if self.point:
+            return TotalDropTail(self.model, tau_0, m_0)
+        # Σ_i w_i Σ_n Pois(n; λ_i τ_0) Q_n(m_0): the size tails once for every node
+        tau, m = np.broadcast_arrays(np.asarray(tau_0, float), np.asarray(m_0, float))
+        out = np.empty(tau.shape)
+        for k, (t, margin) in enumerate(zip(tau.ravel(), m.ravel(), strict=True)):
+            n_max = PoissonCutoff(self.top_rate * float(t))
+            q = self.model.sizes.sum_tail(n_max, float(margin))
+            tail = float(self.weights @ (PoissonPmf(self.nodes * float(t), n_max) @ q))
+            out.flat[k] = 1.0 if margin < 0.0 else min(max(tail, 0.0), 1.0)
+        return out
+
     def LowestFailure(self, lowest_time, lowest_margin) -> np.ndarray:
         """P(F_0) = P(S(τ_0) > m_0) [-]: the lowest plan's own risk, exact
-        (:func:`~eaplan_drake.planning.risk.TotalDropTail`, once per distinct (τ_0, m_0))."""
+        (:func:`~eaplan_drake.planning.risk.TotalDropTail`, once per distinct (τ_0, m_0); with
+        ``rates``, its mixture over the nodes)."""
         tau_0, m_0 = np.broadcast_arrays(
             np.asarray(lowest_time, dtype=float), np.asarray(lowest_margin, dtype=float)
         )
         if tau_0.size == 1:
-            return np.asarray(TotalDropTail(self.model, tau_0, m_0)).reshape(tau_0.shape)
+            return np.asarray(self._TotalDropTail(tau_0, m_0)).reshape(tau_0.shape)
         pairs, inverse = np.unique(
             np.stack([tau_0.ravel(), m_0.ravel()]), axis=1, return_inverse=True
         )
-        tails = np.atleast_1d(TotalDropTail(self.model, pairs[0], pairs[1]))
+        tails = np.atleast_1d(self._TotalDropTail(pairs[0], pairs[1]))
         return tails[inverse.reshape(-1)].reshape(tau_0.shape)
 
     def Risk(self, plan_time, plan_margin, lowest_time, lowest_margin) -> np.ndarray:
@@ -198,7 +245,10 @@ class ExcessRiskTable:
         """G_u(m) on the margin grid (U, K) for the lowest plan time τ_0 [s] and n counts, the
         last one kept (the search of :meth:`RequiredMargin` reads it at every stage)."""
         if self._mixed_key != (tau_0, n):
-            later = _PoissonWeights(self.model.rate * tau_0 * (1.0 - _U), n)  # (U, n)
+            if self.point:
+                later = _PoissonWeights(self.model.rate * tau_0 * (1.0 - _U), n)  # (U, n)
+            else:  # the u-quadrature for each node in turn (N·U, n)
+                later = _PoissonWeights(((self.nodes * tau_0)[:, None] * (1.0 - _U)).ravel(), n)
             self._mixed = later @ self.q[1 : n + 1]
             self._mixed_key = (tau_0, n)
         return self._mixed
@@ -207,12 +257,20 @@ class ExcessRiskTable:
         """What P(F_p) needs of the plans' times τ_p [s] alone, for every trial margin: Λ_p,
         G_u on the margin grid (U, K), the quadrature weights times the first drop's density
         Λ_p e^(−Λ_p u), and e^(−Λ_p)."""
-        lam = self.model.rate
-        mean_p = lam * np.asarray(tau_p, dtype=float)
-        n = self._CountsFor(mean_p, lam * tau_0)
-        mixed = self._Mixed(float(tau_0), n)  # (U, K): G_u on the margin grid
-        weighted = _W * (mean_p[..., None] * np.exp(-mean_p[..., None] * _U))
-        return mixed, weighted, np.exp(-mean_p)
+        if self.point:
+            lam = self.model.rate
+            mean_p = lam * np.asarray(tau_p, dtype=float)
+            n = self._CountsFor(mean_p, lam * tau_0)
+            mixed = self._Mixed(float(tau_0), n)  # (U, K): G_u on the margin grid
+            weighted = _W * (mean_p[..., None] * np.exp(-mean_p[..., None] * _U))
+            return mixed, weighted, np.exp(-mean_p)
+        tau = np.asarray(tau_p, dtype=float)
+        mean_p = tau[..., None] * self.nodes  # (..., N)
+        n = self._CountsFor(mean_p, self.top_rate * tau_0)
+        mixed = self._Mixed(float(tau_0), n)  # (N·U, K)
+        density = mean_p[..., None] * np.exp(-mean_p[..., None] * _U)  # (..., N, U)
+        weighted = (self.weights[:, None] * density).reshape(tau.shape + (-1,)) * self.w
+        return mixed, weighted, np.exp(-mean_p) @ self.weights
 
     def _PlanFailure(self, tau_p, m_p, tau_0: float, m_0, exposure=None) -> np.ndarray:
         """P(F_p) (an upper bound) for plans against one lowest plan time τ_0: the drops after
@@ -220,12 +278,14 @@ class ExcessRiskTable:
         margin grid for the quadrature's u, then read at M(u) for every plan. ``exposure``: the
         plans' :meth:`_Exposure`, when the caller reads many margins of the same plans."""
         mixed, weighted, none = exposure or self._Exposure(tau_p, tau_0)
-        margin = _U * np.asarray(m_p)[..., None] + (1.0 - _U) * np.asarray(m_0)[..., None]
+        u = self.u
+        margin = u * np.asarray(m_p)[..., None] + (1.0 - u) * np.asarray(m_0)[..., None]
         # the grid point at or below each margin (truncation is the floor of these m >= 0), read
         # from the flattened (U, K) table
-        index = (np.clip(margin, 0.0, 1.0) / self.step).astype(int) + _ROW * mixed.shape[1]
+        index = (np.clip(margin, 0.0, 1.0) / self.step).astype(int) + self.row * mixed.shape[1]
         tail = np.where(margin < 0.0, 1.0, np.take(mixed, index))  # (..., U)
-        return np.sum(weighted * tail, axis=-1) + none * (np.asarray(m_p) < 0.0)
+        fail = np.sum(weighted * tail, axis=-1) + none * (np.asarray(m_p) < 0.0)
+        return fail if self.point else fail + self.slack
 
     def RequiredMargin(
         self,
@@ -281,8 +341,9 @@ class _Search:
         self.table, self.tau, self.tau_0, self.m_0 = table, tau, tau_0, m_0
         self.fail_0, self.eps = fail_0, eps
         self.mixed, self.weighted = mixed, weighted
-        self.rest = (1.0 - _U) * m_0[..., None]  # (1 − u) m_0 of M(u)
-        self.offset = _ROW * self.mixed.shape[1]
+        self.u = table.u
+        self.rest = (1.0 - self.u) * m_0[..., None]  # (1 − u) m_0 of M(u)
+        self.offset = table.row * self.mixed.shape[1]
         self.longer, self.level = tau >= tau_0, tau == tau_0
         self.all_longer, self.any_level = bool(self.longer.all()), bool(self.level.any())
         self.spare = 1.0 - fail_0
@@ -304,9 +365,11 @@ class _Search:
 
     def Within(self, trials) -> np.ndarray:
         """R ≤ ε at the trial margins (rows, k) [-], all in [0, m_0]."""
-        margin = _U * trials[..., None] + self.rest
+        margin = self.u * trials[..., None] + self.rest
         index = (np.minimum(margin, 1.0) / self.table.step).astype(int) + self.offset
         fail_p = np.add.reduce(self.weighted * np.take(self.mixed, index), axis=-1)
+        if not self.table.point:
+            fail_p = fail_p + self.table.slack
         ordered = trials <= self.m_0
         if not self.all_longer:
             ordered &= self.longer

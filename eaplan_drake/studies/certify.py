@@ -31,6 +31,7 @@ import numpy as np
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
 from eaplan_drake.params import FaultModelParams, Scenario
+from eaplan_drake.planning.belief import PRIOR_DROPS
 from eaplan_drake.studies.bounds import (
     PlainPower,
     SequentialDecision,
@@ -431,12 +432,21 @@ def CertifyReport(certificate: Certificate) -> str:
     return "\n".join(lines) + "\n"
 
 
+LEARNING_KEYS = ("prior_drops", "recorded_drops", "recorded_hours", "prior_sizes")
+"""The keys of ``planner.fault_model`` that say how the planner's belief learns, not what a world
+draws."""
+
+
 def WorldFaultModel(belief: FaultModelParams, assignments) -> FaultModelParams:
     """The fault model the worlds draw from: the planner's ``belief`` (``planner.fault_model``)
     with ``--world-fault-model KEY=VALUE`` assignments (``rate=0.006``,
-    ``size_bounds=[0.05,0.25]``, …) on a copy; a bad key or value is one line naming it."""
+    ``size_bounds=[0.05,0.25]``, …) on a copy; a bad key or value is one line naming it. The
+    worlds draw from a point model: the belief's learning keys (``prior_drops``, the records,
+    ``prior_sizes``) are not theirs."""
     model = copy.deepcopy(belief)
-    keys = [f.name for f in dc.fields(FaultModelParams)]
+    for key in LEARNING_KEYS:
+        setattr(model, key, getattr(FaultModelParams(), key))
+    keys = [f.name for f in dc.fields(FaultModelParams) if f.name not in LEARNING_KEYS]
     for assignment in assignments or []:
         key, sep, value = str(assignment).partition("=")
         key = key.strip()
@@ -465,7 +475,15 @@ def BeliefLine(belief: FaultModelParams, world: FaultModelParams) -> str:
             "uniform": f"U[{m.size_bounds[0]:g}, {m.size_bounds[1]:g}]",
             "exponential": f"exponential of mean {m.size_mean:g}",
         }.get(m.sizes, f"{m.sizes} {m.size_values}")
-        return f"rate {m.rate:g}/s, sizes {sizes}"
+        text = f"rate {m.rate:g}/s, sizes {sizes}"
+        if m.HoldsBelief():
+            text += (
+                f" (a belief worth {m.prior_drops or PRIOR_DROPS:g} drops, updated by "
+                f"{m.recorded_drops:g} drops in {m.recorded_hours:g} h of records and in flight)"
+            )
+        if m.prior_sizes > 0.0:
+            text += f" (sizes learnt in flight, the stated ones worth {m.prior_sizes:g})"
+        return text
 
     if world == belief:
         return f"faults: the worlds draw the planner's belief ({Text(world)})"
