@@ -114,3 +114,16 @@ def test_learnt_sizes_raise_the_margin_after_a_heavy_drop_only_when_asked():
 def test_bad_belief_keys_name_the_key(fault, key):
     with pytest.raises(ValueError, match=key):
         FaultModelParams(**fault).Validate()
+
+
+def test_a_prior_that_doubts_the_label_scales_the_sizes_not_the_worlds():
+    from eaplan_drake.studies.certify import WorldFaultModel
+
+    params = FaultModelParams(prior_size_scale=3.0, prior_drops=0.5, prior_sizes=1.0)
+    params.Validate()
+    reserve = _Reserve(prior_size_scale=3.0)
+    assert reserve.fault_model.sizes.b == pytest.approx(0.45, abs=1e-12)
+    assert np.all(_Margins(reserve) >= _Margins(_Reserve()) - 1e-12)
+    world = WorldFaultModel(params, [])
+    assert world.size_bounds == [0.0, 0.15] and not world.HoldsBelief()
+    assert world.prior_size_scale == 1.0 and world.prior_sizes == 0.0

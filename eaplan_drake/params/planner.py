@@ -49,6 +49,10 @@ class FaultModelParams(_Params):
     """k: the drops a fleet recorded in ``recorded_hours``, in [0, 1e6]."""
     recorded_hours: float = 0.0
     """T: the flight time of the fleet's records [h], in [0, 1e6]; 0: no records."""
+    prior_size_scale: float = 1.0
+    """s [-]: with ``planner.reserve: risk``, the planner's sizes before it has seen a drop are the
+    stated ones times s (a prior that doubts the label: U[a, b] becomes U[s a, s b], capped at 1),
+    in [1, 100]; what the worlds draw stays the stated sizes. 1: the stated sizes."""
     prior_sizes: float = 0.0
     """K [-]: with ``planner.reserve: risk``, how many observed sizes the declared size model is
     worth when the planner learns from the drops it detects in flight (a Dirichlet-process
@@ -87,6 +91,7 @@ class FaultModelParams(_Params):
         )
         _in_range(self.prior_sizes, f"{key}.prior_sizes", 0.0, 1000.0)
         _in_range(self.prior_drops, f"{key}.prior_drops", 0.0, 1e6)
+        _in_range(self.prior_size_scale, f"{key}.prior_size_scale", 1.0, 100.0)
         _in_range(self.recorded_drops, f"{key}.recorded_drops", 0.0, 1e6)
         _check(
             float(self.recorded_drops) == int(self.recorded_drops),

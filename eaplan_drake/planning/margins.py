@@ -192,7 +192,11 @@ class RiskReserve:
     """
 
     def __init__(self, planner: PlannerParams):
-        self.fault_model = FaultModelFromParams(planner.fault_model)
+        self.fault_model = FaultModelFromParams(
+            planner.fault_model, planner.fault_model.prior_size_scale
+        )
+        """The point model the planner prices with before any update: the stated rate, and the
+        stated sizes times ``prior_size_scale``."""
         fault = planner.fault_model
         self.rate_belief = None
         """The belief over the rate before the flight (a

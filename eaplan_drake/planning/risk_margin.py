@@ -106,14 +106,17 @@ def _Trials(lo: np.ndarray, width: np.ndarray, k) -> np.ndarray:
     return lo[:, None] + width[:, None] * k / _SEARCH
 
 
-def FaultModelFromParams(params: FaultModelParams) -> FaultModel:
-    """The :class:`~eaplan_drake.planning.risk.FaultModel` a ``planner.fault_model`` declares."""
+def FaultModelFromParams(params: FaultModelParams, scale: float = 1.0) -> FaultModel:
+    """The :class:`~eaplan_drake.planning.risk.FaultModel` a ``planner.fault_model`` declares,
+    every size times ``scale`` s >= 1 [-] (capped at 1 SoC; the exponential's mean below 1)."""
+    s = float(scale)
     if params.sizes == "uniform":
-        sizes = UniformDrops(*(float(v) for v in params.size_bounds))
+        a, b = (float(v) for v in params.size_bounds)
+        sizes = UniformDrops(min(s * a, 1.0 - 1e-9), min(s * b, 1.0))
     elif params.sizes == "exponential":
-        sizes = ExponentialDrops(float(params.size_mean))
+        sizes = ExponentialDrops(min(s * float(params.size_mean), 0.999))
     else:
-        sizes = EmpiricalDrops(tuple(float(v) for v in params.size_values))
+        sizes = EmpiricalDrops(tuple(min(s * float(v), 1.0) for v in params.size_values))
     return FaultModel(float(params.rate), sizes)
 
 

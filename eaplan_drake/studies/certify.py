@@ -432,7 +432,13 @@ def CertifyReport(certificate: Certificate) -> str:
     return "\n".join(lines) + "\n"
 
 
-LEARNING_KEYS = ("prior_drops", "recorded_drops", "recorded_hours", "prior_sizes")
+LEARNING_KEYS = (
+    "prior_drops",
+    "recorded_drops",
+    "recorded_hours",
+    "prior_size_scale",
+    "prior_sizes",
+)
 """The keys of ``planner.fault_model`` that say how the planner's belief learns, not what a world
 draws."""
 
@@ -481,8 +487,10 @@ def BeliefLine(belief: FaultModelParams, world: FaultModelParams) -> str:
                 f" (a belief worth {m.prior_drops or PRIOR_DROPS:g} drops, updated by "
                 f"{m.recorded_drops:g} drops in {m.recorded_hours:g} h of records and in flight)"
             )
+        if m.prior_size_scale != 1.0:
+            text += f" (sizes up to {m.prior_size_scale:g}× the stated before a drop is seen)"
         if m.prior_sizes > 0.0:
-            text += f" (sizes learnt in flight, the stated ones worth {m.prior_sizes:g})"
+            text += f" (sizes learnt in flight, the prior worth {m.prior_sizes:g})"
         return text
 
     if world == belief:
