@@ -65,8 +65,12 @@ def test_a_point_belief_table_is_the_point_table():
     )
 
 
+POINT = dict(prior_drops=0.0, prior_size_scale=1.0, prior_sizes=0.0)
+"""The point model of the stated rate and sizes (no belief, no learning)."""
+
+
 def _Reserve(**fault) -> RiskReserve:
-    planner = PlannerParams(reserve="risk", fault_model=FaultModelParams(**fault))
+    planner = PlannerParams(reserve="risk", fault_model=FaultModelParams(**{**POINT, **fault}))
     return RiskReserve(planner)
 
 
@@ -108,7 +112,7 @@ def test_learnt_sizes_raise_the_margin_after_a_heavy_drop_only_when_asked():
         (dict(recorded_drops=1.5), "planner.fault_model.recorded_drops"),
         (dict(recorded_hours=-2.0), "planner.fault_model.recorded_hours"),
         (dict(prior_sizes=2000.0), "planner.fault_model.prior_sizes"),
-        (dict(rate=0.0, prior_drops=1.0), "planner.fault_model.rate"),
+        (dict(rate=0.0, recorded_hours=1.0), "planner.fault_model.rate"),
     ],
 )
 def test_bad_belief_keys_name_the_key(fault, key):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from eaplan_drake.energy.computation import LoadComputationTable
-from eaplan_drake.params import AUTHORS_K_B, BatteryParams, PlannerParams
+from eaplan_drake.params import AUTHORS_K_B, BatteryParams, FaultModelParams, PlannerParams
 from eaplan_drake.planning.grid_search import DeterminedDecision
 from eaplan_drake.planning.margins import (
     FixedReserveMargin,
@@ -26,10 +26,12 @@ from eaplan_drake.planning.mpc import MissionProblem
 BATTERY = BatteryParams(k_b=AUTHORS_K_B)
 """The battery the golden states were computed with (the papers' pack, the authors' scaling)."""
 GOLDEN = json.loads((Path(__file__).parent / "golden" / "mission_steps.json").read_text())
+POINT_BELIEF = FaultModelParams(prior_drops=0.0, prior_size_scale=1.0, prior_sizes=0.0)
+"""The point fault model the golden risk steps were computed with (no belief, no learning)."""
 SETTINGS = {
     "fixed": {"reserve": "fixed", "fault_reserve_time": 0.0},
     "timed": {"reserve": "fixed", "fault_reserve_time": 300.0},
-    "risk": {"reserve": "risk"},
+    "risk": {"reserve": "risk", "fault_model": POINT_BELIEF},
 }
 MARGIN_KINDS = {"fixed": FixedReserveMargin, "timed": TimedReserveMargin, "risk": RiskMargin}
 

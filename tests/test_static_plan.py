@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from eaplan_drake.energy.computation import LoadComputationTable
-from eaplan_drake.params import BatteryParams, PlannerParams
+from eaplan_drake.params import BatteryParams, FaultModelParams, PlannerParams
 from eaplan_drake.planning.mpc import MissionProblem
 from eaplan_drake.planning.planner import PlannerObservation
 from eaplan_drake.planning.policies import StaticTakeoffPolicy
@@ -21,9 +21,13 @@ GOLDEN = json.loads((Path(__file__).parent / "golden" / "mission_steps.json").re
 CASES = [c for c in GOLDEN["cases"] if c["setting"] == "risk"]
 
 
+POINT_BELIEF = FaultModelParams(prior_drops=0.0, prior_size_scale=1.0, prior_sizes=0.0)
+"""The stated point model (no belief): what the independent enumeration prices with."""
+
+
 def _Problem(table_name, **planner):
     table = LoadComputationTable(table_name)
-    planner = PlannerParams(reserve="risk", **planner)
+    planner = PlannerParams(reserve="risk", **{"fault_model": POINT_BELIEF, **planner})
     return MissionProblem(planner, table, GOLDEN["order"], BatteryParams(), GOLDEN["grid"])
 
 
@@ -41,7 +45,7 @@ def test_the_best_static_plan_is_the_best_of_an_independent_enumeration(index):
     step = _Step(pb, case, soc=max(case["soc"], 0.7))
     eps = 0.05
     d = BestStaticPlan(step, eps)
-    model = FaultModelFromParams(PlannerParams().fault_model)
+    model = FaultModelFromParams(POINT_BELIEF)
     reserve, floor = BatteryParams().reserve_soc, PlannerParams().margin_floor
     rate = step.margin.rate
     t = np.asarray(case["t_rem"])

@@ -25,7 +25,11 @@ class FaultModelParams(_Params):
     scripted ``battery.faults`` (what happens in a flight): SoC drops arrive as a Poisson process
     of rate λ = ``rate`` [1/s], with i.i.d. sizes [-] from ``sizes``. The default covers the
     benchmark's random worlds (0–3 drops of up to 15 % in the first 500 s: 1.5 drops per 500 s,
-    sizes uniform in [0, 0.15]). See :mod:`eaplan_drake.planning.risk`, and the docs' policies
+    sizes uniform in [0, 0.15]). By default the planner doubts it and learns in flight: the rate
+    is a belief worth half a drop (``prior_drops``), the sizes before the first drop are believed
+    up to ``prior_size_scale`` times the stated ones, and each detected drop's size is learnt
+    (``prior_sizes``); what the worlds of a study draw is the stated model. See
+    :mod:`eaplan_drake.planning.risk`, :mod:`eaplan_drake.planning.belief`, and the docs' policies
     page for how to estimate λ and the sizes from a fleet's records."""
 
     rate: float = 0.003
@@ -39,21 +43,21 @@ class FaultModelParams(_Params):
     """Mean of exponential sizes [-], in [1e-6, 1) (sizes above 1 empty the battery)."""
     size_values: list[float] = dc.field(default_factory=list)
     """The recorded sizes of an empirical distribution [-], each in (0, 1], at most 1000."""
-    prior_drops: float = 0.0
+    prior_drops: float = 0.5
     """α_0 [-]: with ``planner.reserve: risk``, how many drops the stated ``rate`` is worth: the
     planner then holds the belief λ ~ Gamma(α_0, α_0/``rate``), updated by the records below and
     in flight by every drop it detects and every second flown without one
     (:class:`~eaplan_drake.planning.belief.RateBelief`), in [0, 1e6]; 0: a point rate (with
-    records, Jeffreys' 1/2)."""
+    records, Jeffreys' 1/2). The default 1/2 is Jeffreys' shape."""
     recorded_drops: int = 0
     """k: the drops a fleet recorded in ``recorded_hours``, in [0, 1e6]."""
     recorded_hours: float = 0.0
     """T: the flight time of the fleet's records [h], in [0, 1e6]; 0: no records."""
-    prior_size_scale: float = 1.0
+    prior_size_scale: float = 2.6667
     """s [-]: with ``planner.reserve: risk``, the planner's sizes before it has seen a drop are the
     stated ones times s (a prior that doubts the label: U[a, b] becomes U[s a, s b], capped at 1),
     in [1, 100]; what the worlds draw stays the stated sizes. 1: the stated sizes."""
-    prior_sizes: float = 0.0
+    prior_sizes: float = 1.0
     """K [-]: with ``planner.reserve: risk``, how many observed sizes the declared size model is
     worth when the planner learns from the drops it detects in flight (a Dirichlet-process
     predictive, :class:`~eaplan_drake.planning.belief.DirichletDrops`), in [0, 1000]; 0: the sizes
@@ -62,7 +66,7 @@ class FaultModelParams(_Params):
     def HoldsBelief(self) -> bool:
         """Whether the planner holds a belief over the rate (``prior_drops`` or records) rather
         than the point ``rate``."""
-        return self.prior_drops > 0.0 or self.recorded_hours > 0.0
+        return self.rate > 0.0 and (self.prior_drops > 0.0 or self.recorded_hours > 0.0)
 
     def Validate(self, key: str = "planner.fault_model") -> None:
         _in_range(self.rate, f"{key}.rate", 0.0, 0.1)
@@ -100,9 +104,10 @@ class FaultModelParams(_Params):
         )
         _in_range(self.recorded_hours, f"{key}.recorded_hours", 0.0, 1e6)
         _check(
-            self.rate > 0.0 or not self.HoldsBelief(),
+            self.rate > 0.0 or self.recorded_hours == 0.0,
             f"{key}.rate",
-            "must be > 0 [1/s] for a rate belief (prior_drops or recorded_hours > 0), got 0",
+            "must be > 0 [1/s] (the prior's mean) with a fleet's records (recorded_hours > 0), "
+            "got 0",
         )
         for i, v in enumerate(self.size_values):
             _in_range(v, f"{key}.size_values[{i}]", 1e-9, 1.0)

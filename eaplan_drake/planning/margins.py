@@ -253,6 +253,14 @@ class RiskReserve:
             table = self._tables[key] = RiskTable(model, bucket)
         return table
 
+    def DropTail(self, times, margins) -> np.ndarray:
+        """P(S(τ) > m) [-] at take-off (nothing flown, no drop) for exposures ``times`` τ [s]
+        and ``margins`` m [-] (arrays of one shape, τ within :attr:`max_exposure`): the point
+        model's :func:`~eaplan_drake.planning.risk.TotalDropTail`, or its mixture over the
+        rate belief's quadrature."""
+        times = np.asarray(times, dtype=float)
+        return self.Table(float(np.max(times, initial=1.0))).LowestFailure(times, margins)
+
     def Margin(
         self,
         rate,

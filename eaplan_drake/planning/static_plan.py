@@ -15,15 +15,14 @@ total more than m_jk, and its excess risk over the static lowest plan (t_0, m_0)
     R_jk = P(S(t_j) > m_jk) − P(S(t_0) > m_0)                                              (S2)
 
 (t_j ≥ t_0 and m_jk ≤ m_0 for every plan that spends more, so the lowest plan's failures are
-among its own; :func:`~eaplan_drake.planning.risk.TotalDropTail` under ``planner.fault_model``).
+among its own; :meth:`~eaplan_drake.planning.margins.RiskReserve.DropTail`: the planner's belief
+at take-off, the mpc's at its first step).
 The baseline is the highest-quality plan with m_jk ≥ 0 and R_jk ≤ ε = ``planner.risk`` (ties:
 the larger end SoC), the lowest plan when none is; the same rule as ``eaplan-drake plan``'s best
 static plan, on the scenario's own coverage and the in-flight estimate.
 """
 
 import numpy as np
-
-from eaplan_drake.planning.risk import TotalDropTail
 
 __all__ = ["BestStaticPlan"]
 
@@ -39,13 +38,12 @@ def BestStaticPlan(step, eps: float):
     t = step.t_rem
     beyond = step.prediction.beyond | (t > pb.risk_reserve.max_exposure)
     uncertainty = step.margin.floor + step.margin.rate * t
-    model = pb.risk_reserve.fault_model
 
     def Tail(times, margins, beyond):
         out = np.ones_like(margins)  # a negative margin fails surely
         ok = (margins >= 0.0) & np.isfinite(margins) & ~beyond
         if np.any(ok):
-            out[ok] = TotalDropTail(model, times[ok], margins[ok])
+            out[ok] = pb.risk_reserve.DropTail(times[ok], margins[ok])
         return out
 
     end_low = step.SocAt(pb.lowest_power, t)

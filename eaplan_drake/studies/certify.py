@@ -442,6 +442,15 @@ LEARNING_KEYS = (
 """The keys of ``planner.fault_model`` that say how the planner's belief learns, not what a world
 draws."""
 
+POINT_MODEL = {
+    "prior_drops": 0.0,
+    "recorded_drops": 0,
+    "recorded_hours": 0.0,
+    "prior_size_scale": 1.0,
+    "prior_sizes": 0.0,
+}
+"""Those keys' values for a point model: what a world's faults are drawn from."""
+
 
 def WorldFaultModel(belief: FaultModelParams, assignments) -> FaultModelParams:
     """The fault model the worlds draw from: the planner's ``belief`` (``planner.fault_model``)
@@ -450,8 +459,8 @@ def WorldFaultModel(belief: FaultModelParams, assignments) -> FaultModelParams:
     worlds draw from a point model: the belief's learning keys (``prior_drops``, the records,
     ``prior_sizes``) are not theirs."""
     model = copy.deepcopy(belief)
-    for key in LEARNING_KEYS:
-        setattr(model, key, getattr(FaultModelParams(), key))
+    for key, value in POINT_MODEL.items():
+        setattr(model, key, value)
     keys = [f.name for f in dc.fields(FaultModelParams) if f.name not in LEARNING_KEYS]
     for assignment in assignments or []:
         key, sep, value = str(assignment).partition("=")
