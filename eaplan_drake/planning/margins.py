@@ -26,7 +26,7 @@ import numpy as np
 from eaplan_drake.params import MAX_EXPECTED_DROPS, PlannerParams
 from eaplan_drake.planning.belief import PRIOR_DROPS, DirichletDrops, RateBelief
 from eaplan_drake.planning.interpolation import Pchip, PchipSlopes
-from eaplan_drake.planning.risk import FaultModel
+from eaplan_drake.planning.risk import FaultModel, TotalDropTail
 from eaplan_drake.planning.risk_margin import (
     UNREACHABLE_MARGIN,
     ExcessRiskTable,
@@ -192,6 +192,8 @@ class RiskReserve:
     """
 
     def __init__(self, planner: PlannerParams):
+        self.stated_model = FaultModelFromParams(planner.fault_model)
+        """The stated point model (``rate``, the sizes as stated)."""
         self.fault_model = FaultModelFromParams(
             planner.fault_model, planner.fault_model.prior_size_scale
         )
@@ -254,12 +256,14 @@ class RiskReserve:
         return table
 
     def DropTail(self, times, margins) -> np.ndarray:
-        """P(S(τ) > m) [-] at take-off (nothing flown, no drop) for exposures ``times`` τ [s]
-        and ``margins`` m [-] (arrays of one shape, τ within :attr:`max_exposure`): the point
-        model's :func:`~eaplan_drake.planning.risk.TotalDropTail`, or its mixture over the
-        rate belief's quadrature."""
-        times = np.asarray(times, dtype=float)
-        return self.Table(float(np.max(times, initial=1.0))).LowestFailure(times, margins)
+        """P(S(τ) > m) [-] for exposures ``times`` τ [s] and ``margins`` m [-] (arrays of one
+        shape) under the stated point model (:attr:`stated_model`: ``rate`` and the sizes as
+        stated, :func:`~eaplan_drake.planning.risk.TotalDropTail`): what a plan that never
+        updates (``static_takeoff``) is priced with. The doubting, learning belief is the mpc's:
+        its caution before the first drop is paid back only by what the flight teaches, and a
+        static plan learns nothing."""
+        times, margins = np.asarray(times, float), np.asarray(margins, float)
+        return TotalDropTail(self.stated_model, times, margins)
 
     def Margin(
         self,

@@ -15,8 +15,8 @@ total more than m_jk, and its excess risk over the static lowest plan (t_0, m_0)
     R_jk = P(S(t_j) > m_jk) − P(S(t_0) > m_0)                                              (S2)
 
 (t_j ≥ t_0 and m_jk ≤ m_0 for every plan that spends more, so the lowest plan's failures are
-among its own; :meth:`~eaplan_drake.planning.margins.RiskReserve.DropTail`: the planner's belief
-at take-off, the mpc's at its first step).
+among its own; :meth:`~eaplan_drake.planning.margins.RiskReserve.DropTail`: the stated point
+model of ``planner.fault_model``).
 The baseline is the highest-quality plan with m_jk ≥ 0 and R_jk ≤ ε = ``planner.risk`` (ties:
 the larger end SoC), the lowest plan when none is; the same rule as ``eaplan-drake plan``'s best
 static plan, on the scenario's own coverage and the in-flight estimate.
