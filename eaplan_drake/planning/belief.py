@@ -529,21 +529,31 @@ class DirichletDrops:
     def sum_tail(self, n_max: int, margin) -> np.ndarray:
         """Q̂_n(m) for n = 0..n_max, shape margin.shape + (n_max + 1,) (class docstring)."""
         m = np.asarray(margin, dtype=float)
-        one = self.Cells()
-        last = one.size - 1  # the cell of sums beyond 1
-        sums = np.zeros(one.size)
-        sums[0] = 1.0
+        above = _DirichletAbove(self, -(-(int(n_max) + 1) // 16) * 16)  # (levels, cells)
         # P(Ŝ > m) = P(Ŝ >= (⌊m/h⌋ + 1) h): the index of the first grid sum above each margin
-        first = np.clip(np.floor(m / SIZE_RESOLUTION).astype(int) + 1, 0, last)
-        q = np.empty(m.shape + (n_max + 1,))
-        for n in range(n_max + 1):
-            if n > 0:
-                full = np.convolve(sums, one)
-                sums = full[: one.size].copy()
-                sums[last] += full[one.size :].sum()
-            above = np.cumsum(sums[::-1])[::-1]
-            q[..., n] = np.where(m < 0.0, 1.0, np.minimum(above[first], 1.0))
-        return q
+        first = np.clip(np.floor(m / SIZE_RESOLUTION).astype(int) + 1, 0, above.shape[1] - 1)
+        q = np.moveaxis(above[: n_max + 1, first], 0, -1)
+        return np.where(m[..., None] < 0.0, 1.0, np.minimum(q, 1.0))
+
+
+@functools.lru_cache(maxsize=64)
+def _DirichletAbove(sizes: DirichletDrops, levels: int) -> np.ndarray:
+    """P(Ŝ_n >= j h) of :class:`DirichletDrops` for n = 0..levels − 1 and the grid cells j (the
+    n-fold convolutions, computed once per size model and kept: a flight asks for them at every
+    step)."""
+    one = sizes.Cells()
+    last = one.size - 1  # the cell of sums beyond 1
+    sums = np.zeros(one.size)
+    sums[0] = 1.0
+    above = np.empty((levels, one.size))
+    for n in range(levels):
+        if n > 0:
+            full = np.convolve(sums, one)
+            sums = full[: one.size].copy()
+            sums[last] += full[one.size :].sum()
+        above[n] = np.cumsum(sums[::-1])[::-1]
+    above.flags.writeable = False
+    return above
 
 
 @dc.dataclass(frozen=True)
