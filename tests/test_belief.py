@@ -13,7 +13,6 @@ from eaplan_drake.planning.belief import (
     BeliefDropTail,
     BeliefExcessRisk,
     BeliefExcessRiskBounds,
-    DirichletDrops,
     ExponentialSizeBelief,
     FaultBelief,
     LearningSizes,
@@ -23,6 +22,7 @@ from eaplan_drake.planning.belief import (
     SaturatedSumTail,
     UpdateSizes,
 )
+from eaplan_drake.planning.learnt_sizes import DirichletDrops
 from eaplan_drake.planning.risk import (
     EmpiricalDrops,
     ExcessRiskBounds,

@@ -7,10 +7,10 @@ import pytest
 from eaplan_drake.params import FaultModelParams, PlannerParams
 from eaplan_drake.planning.belief import (
     BeliefExcessRisk,
-    DirichletDrops,
     FaultBelief,
     RateBelief,
 )
+from eaplan_drake.planning.learnt_sizes import DirichletDrops
 from eaplan_drake.planning.margins import RiskReserve
 from eaplan_drake.planning.risk import FaultModel, UniformDrops
 from eaplan_drake.planning.risk_margin import ExcessRiskTable

@@ -60,8 +60,8 @@ class FaultModelParams(_Params):
     prior_sizes: float = 1.0
     """K [-]: with ``planner.reserve: risk``, how many observed sizes the declared size model is
     worth when the planner learns from the drops it detects in flight (a Dirichlet-process
-    predictive, :class:`~eaplan_drake.planning.belief.DirichletDrops`), in [0, 1000]; 0: the sizes
-    do not learn. Ignored by the worlds' own faults (``world_fault_model``)."""
+    predictive, :class:`~eaplan_drake.planning.learnt_sizes.DirichletDrops`), in [0, 1000];
+    0: the sizes do not learn. Ignored by the worlds' own faults (``world_fault_model``)."""
 
     def HoldsBelief(self) -> bool:
         """Whether the planner holds a belief over the rate (``prior_drops`` or records) rather

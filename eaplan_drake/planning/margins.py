@@ -24,8 +24,9 @@ import math
 import numpy as np
 
 from eaplan_drake.params import MAX_EXPECTED_DROPS, PlannerParams
-from eaplan_drake.planning.belief import PRIOR_DROPS, DirichletDrops, RateBelief
+from eaplan_drake.planning.belief import PRIOR_DROPS, RateBelief
 from eaplan_drake.planning.interpolation import Pchip, PchipSlopes
+from eaplan_drake.planning.learnt_sizes import DirichletDrops
 from eaplan_drake.planning.risk import FaultModel, TotalDropTail
 from eaplan_drake.planning.risk_margin import (
     UNREACHABLE_MARGIN,
@@ -230,7 +231,8 @@ class RiskReserve:
     def Model(self, observed=()) -> FaultModel:
         """The fault model after the drop sizes ``observed`` [-] detected in flight: the declared
         one, or with ``prior_sizes`` K > 0 and some sizes observed, its rate with the learnt
-        sizes :class:`~eaplan_drake.planning.belief.DirichletDrops` (K, the observed sizes)."""
+        sizes :class:`~eaplan_drake.planning.learnt_sizes.DirichletDrops` (K, the observed
+        sizes)."""
         if not observed or self.prior_sizes <= 0.0:
             return self.fault_model
         sizes = DirichletDrops(self.fault_model.sizes, tuple(observed), self.prior_sizes)
