@@ -31,7 +31,8 @@ class DirichletDrops:
     support (heavier than the declared bounds) enters the tails at once. Q_n(m) is the n-fold sum
     of sizes rounded up to h = :data:`~eaplan_drake.planning.belief.SIZE_RESOLUTION` (each by
     < h), computed by convolution on that grid (sums beyond 1 SoC kept as one cell):
-    Q_n(m) ≤ Q̂_n(m) ≤ Q_n(m − n h), conservative, and exact for sizes on the grid. The base's cells are P((j − 1)h < X ≤ jh) from its own Q_1."""
+    Q_n(m) ≤ Q̂_n(m) ≤ Q_n(m − n h), conservative, and exact for sizes on the grid.
+    The base's cells are P((j − 1)h < X ≤ jh) from its own Q_1."""
 
     base: UniformDrops | ExponentialDrops | EmpiricalDrops
     observed: tuple[float, ...]
