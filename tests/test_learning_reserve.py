@@ -11,7 +11,7 @@ from eaplan_drake.planning.belief import (
     RateBelief,
 )
 from eaplan_drake.planning.learnt_sizes import DirichletDrops
-from eaplan_drake.planning.margins import RiskReserve
+from eaplan_drake.planning.margins import RiskReserve, UnpricedMargin
 from eaplan_drake.planning.risk import FaultModel, UniformDrops
 from eaplan_drake.planning.risk_margin import ExcessRiskTable
 
@@ -131,3 +131,13 @@ def test_a_prior_that_doubts_the_label_scales_the_sizes_not_the_worlds():
     world = WorldFaultModel(params, [])
     assert world.size_bounds == [0.0, 0.15] and not world.HoldsBelief()
     assert world.prior_size_scale == 1.0 and world.prior_sizes == 0.0
+
+
+def test_a_belief_beyond_the_tables_is_unpriced_not_raised():
+    """After more drops than any table prices, the step is unpriced (the lowest plan), never an
+    error inside the flight."""
+    reserve = _Reserve(prior_drops=0.5)
+    margin = reserve.Margin(
+        0.0, np.array([300.0, 400.0]), 300.0, 0.25, 0.025, flown=60.0, drops=400
+    )
+    assert isinstance(margin, UnpricedMargin) and "400 drops" in margin.why

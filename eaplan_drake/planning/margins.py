@@ -242,13 +242,16 @@ class RiskReserve:
         """The :class:`~eaplan_drake.planning.risk_margin.ExcessRiskTable` of :meth:`Model`
         (``observed``) for exposures up to ``exposure`` [s] (kept per bucket and sizes); with a
         rate belief, priced under it after ``flown`` [s] with ``drops`` detected (a table of the
-        step: its quadrature nodes, those the tables cannot hold left to the table's slack)."""
+        step: its quadrature nodes, those the tables cannot hold left to the table's slack; None
+        when the tables hold none of them)."""
         bucket = ExposureBucket(float(exposure))
         model = self.Model(observed)
         if self.rate_belief is not None:
             belief = self.rate_belief.Update(max(float(flown), 0.0), int(drops))
             nodes, weights = belief.Quadrature()
             keep = (nodes * bucket <= MAX_EXPECTED_DROPS) & (weights >= NEGLIGIBLE_NODE)
+            if not keep.any():  # every rate the belief holds is beyond the tables
+                return None
             model = FaultModel(belief.mean, model.sizes)
             return ExcessRiskTable(model, bucket, rates=(nodes[keep], weights[keep]))
         key = (bucket, model)
@@ -314,6 +317,12 @@ class RiskReserve:
             )
         priced = times <= self.max_exposure
         table = self.Table(float(times[priced][-1]), observed, flown, drops)
+        if table is None:
+            return UnpricedMargin(
+                self.floor,
+                rate,
+                f"after {int(drops)} drops the fault rate believed is beyond what the tables price",
+            )
         baseline = None
         if anchor is not None:
             tau_a, m_a = anchor
