@@ -387,7 +387,7 @@ _SIZE_KINDS = (UniformDrops, ExponentialDrops, EmpiricalDrops)
 
 def _IsSizeModel(sizes) -> bool:
     """Whether ``sizes`` answers what a size model must (its tails Q_n and its largest size):
-    the learnt predictive of :mod:`eaplan_drake.planning.belief` does."""
+    the learnt predictive of :mod:`eaplan_drake.planning.learnt_sizes` does."""
     return callable(getattr(sizes, "sum_tail", None)) and hasattr(sizes, "upper")
 
 

@@ -432,16 +432,6 @@ def CertifyReport(certificate: Certificate) -> str:
     return "\n".join(lines) + "\n"
 
 
-LEARNING_KEYS = (
-    "prior_drops",
-    "recorded_drops",
-    "recorded_hours",
-    "prior_size_scale",
-    "prior_sizes",
-)
-"""The keys of ``planner.fault_model`` that say how the planner's belief learns, not what a world
-draws."""
-
 POINT_MODEL = {
     "prior_drops": 0.0,
     "recorded_drops": 0,
@@ -449,7 +439,11 @@ POINT_MODEL = {
     "prior_size_scale": 1.0,
     "prior_sizes": 0.0,
 }
-"""Those keys' values for a point model: what a world's faults are drawn from."""
+"""The keys of ``planner.fault_model`` that say how the planner's belief learns, not what a world
+draws, at their values for a point model: what a world's faults are drawn from."""
+
+LEARNING_KEYS = tuple(POINT_MODEL)
+"""Those keys' names."""
 
 
 def WorldFaultModel(belief: FaultModelParams, assignments) -> FaultModelParams:
