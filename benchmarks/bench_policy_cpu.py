@@ -8,6 +8,11 @@ cost); the ratio of the two is per world, so a drift of the machine's load betwe
 Prints a table of per-world ratios and their median, and the decisions' summary (status, quality)
 so that a faster version can be checked for the same flights. Not a test.
 
+The flights run with one BLAS thread, as ``eaplan-drake`` and a study's workers fly them
+(``OPENBLAS_NUM_THREADS=1`` unless set): with OpenBLAS's default threads the risk tables'
+products keep a second thread spinning, which the process clock counts (a learning flight then
+costs about twice its single-thread CPU for ~10 % less wall time).
+
     python3 benchmarks/bench_policy_cpu.py [--worlds 6] [--repeat 3] [--config risk=]
         [--config fixed=planner.reserve=fixed]
 
@@ -15,8 +20,11 @@ A configuration is ``NAME=KEY=VALUE[,KEY=VALUE…]`` (empty: the scenario as it 
 """
 
 import argparse
+import os
 import statistics
 import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported: as the CLI flies
 
 from eaplan_drake.loading import LayerScenario, OverrideFromAssignment
 from eaplan_drake.simulation import Simulate

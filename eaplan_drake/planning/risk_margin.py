@@ -244,33 +244,34 @@ class ExcessRiskTable:
         lowest = (tau_p == tau_0) & (m_p == m_0)
         return np.where(lowest, 0.0, np.clip(risk, 0.0, 1.0))
 
-    def _Mixed(self, tau_0: float, n: int) -> np.ndarray:
+    def _Mixed(self, tau_0: float, n: int, columns: int | None = None) -> np.ndarray:
         """G_u(m) on the margin grid (U, K) for the lowest plan time τ_0 [s] and n counts, the
-        last one kept (the search of :meth:`RequiredMargin` reads it at every stage)."""
-        if self._mixed_key != (tau_0, n):
+        last one kept (the search of :meth:`RequiredMargin` reads it at every stage); with
+        ``columns``, only the first ``columns`` margins of the grid (those the search reads)."""
+        if self._mixed_key != (tau_0, n, columns):
             if self.point:
                 later = _PoissonWeights(self.model.rate * tau_0 * (1.0 - _U), n)  # (U, n)
             else:  # the u-quadrature for each node in turn (N·U, n)
                 later = _PoissonWeights(((self.nodes * tau_0)[:, None] * (1.0 - _U)).ravel(), n)
-            self._mixed = later @ self.q[1 : n + 1]
-            self._mixed_key = (tau_0, n)
+            self._mixed = later @ self.q[1 : n + 1, :columns]
+            self._mixed_key = (tau_0, n, columns)
         return self._mixed
 
-    def _Exposure(self, tau_p, tau_0: float) -> tuple:
+    def _Exposure(self, tau_p, tau_0: float, columns: int | None = None) -> tuple:
         """What P(F_p) needs of the plans' times τ_p [s] alone, for every trial margin: Λ_p,
-        G_u on the margin grid (U, K), the quadrature weights times the first drop's density
-        Λ_p e^(−Λ_p u), and e^(−Λ_p)."""
+        G_u on the margin grid (U, K; the first ``columns`` margins only, when given), the
+        quadrature weights times the first drop's density Λ_p e^(−Λ_p u), and e^(−Λ_p)."""
         if self.point:
             lam = self.model.rate
             mean_p = lam * np.asarray(tau_p, dtype=float)
             n = self._CountsFor(mean_p, lam * tau_0)
-            mixed = self._Mixed(float(tau_0), n)  # (U, K): G_u on the margin grid
+            mixed = self._Mixed(float(tau_0), n, columns)  # (U, K): G_u on the margin grid
             weighted = _W * (mean_p[..., None] * np.exp(-mean_p[..., None] * _U))
             return mixed, weighted, np.exp(-mean_p)
         tau = np.asarray(tau_p, dtype=float)
         mean_p = tau[..., None] * self.nodes  # (..., N)
         n = self._CountsFor(mean_p, self.top_rate * tau_0)
-        mixed = self._Mixed(float(tau_0), n)  # (N·U, K)
+        mixed = self._Mixed(float(tau_0), n, columns)  # (N·U, K)
         density = mean_p[..., None] * np.exp(-mean_p[..., None] * _U)  # (..., N, U)
         weighted = (self.weights[:, None] * density).reshape(tau.shape + (-1,)) * self.w
         return mixed, weighted, np.exp(-mean_p) @ self.weights
@@ -317,7 +318,10 @@ class ExcessRiskTable:
         fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
         if baseline_failure is not None:
             fail_0 = np.minimum(fail_0, float(baseline_failure))
-        mixed, weighted, _ = self._Exposure(tau, float(tau_0))  # e^(−Λ_p): negative margins only
+        # every trial margin and M(u) lie in [0, m_0]: the grid's margins up to m_0 are read
+        # (floor(M/h) ≤ floor(m_0/h) + 1 with rounding), the rest is never computed
+        columns = min(self.q.shape[1], int(m_0 / self.step) + 2)
+        mixed, weighted, _ = self._Exposure(tau, float(tau_0), columns)  # e^(−Λ_p): m_p < 0 only
         search = _Search(self, tau, tau_0, lowest, fail_0, eps, mixed, weighted)
         # R falls as the margin grows: a plan that even m_p = m_0 does not keep within ε keeps
         # no margin within it (+inf, most plans late in a flight); the others are searched
