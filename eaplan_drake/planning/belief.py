@@ -308,19 +308,31 @@ class RateBelief:
         weight λ^(α−1) e^(−βλ) (generalised Gauss–Laguerre, from the eigenvalues of its Jacobi
         matrix, diagonal 2k + α, off-diagonal √(k (k + α − 1)), divided by β), exact for
         polynomials in λ of degree 2·``nodes`` − 1; the weights sum to 1."""
-        k = np.arange(CheckCount("nodes", nodes, 1, 64))
-        a = self.shape - 1.0
-        jacobi = np.diag(2.0 * k + a + 1.0)
-        off = np.sqrt(k[1:] * (k[1:] + a))
-        jacobi += np.diag(off, 1) + np.diag(off, -1)
-        x, vectors = np.linalg.eigh(jacobi)
-        weights = vectors[0] ** 2
-        return x / self.rate, weights / weights.sum()
+        x, weights = _GaussLaguerre(self.shape, CheckCount("nodes", nodes, 1, 64))
+        return x / self.rate, weights.copy()
 
     def CountPmf(self, exposure, n_max: int) -> np.ndarray:
         """The predictive P(N(τ) = n), n = 0..n_max, over ``exposure`` τ [s] (broadcasts):
         NB(α, β/(β + τ)), shape τ.shape + (n_max + 1,)."""
         return NegativeBinomialPmf(self.shape, np.asarray(exposure, dtype=float) / self.rate, n_max)
+
+
+@functools.lru_cache(maxsize=64)
+def _GaussLaguerre(shape: float, nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes x_i and normalised weights of Gauss's rule for the weight x^(α−1) e^(−x) (α =
+    ``shape``): the eigenvalues of the Jacobi matrix and the squared first components of its
+    eigenvectors. A pure function of α (kept: a flight's belief changes its rate β at every step,
+    its shape only at a drop); the arrays are read-only."""
+    k = np.arange(nodes)
+    a = shape - 1.0
+    jacobi = np.diag(2.0 * k + a + 1.0)
+    off = np.sqrt(k[1:] * (k[1:] + a))
+    jacobi += np.diag(off, 1) + np.diag(off, -1)
+    x, vectors = np.linalg.eigh(jacobi)
+    weights = vectors[0] ** 2
+    weights = weights / weights.sum()
+    x.flags.writeable = weights.flags.writeable = False
+    return x, weights
 
 
 def _CheckArray(name: str, value, *, nonnegative: bool, what: str) -> np.ndarray:

@@ -323,13 +323,18 @@ class RiskReserve:
                 rate,
                 f"after {int(drops)} drops the fault rate believed is beyond what the tables price",
             )
-        baseline = None
+        # P(F_0) of the lowest plan, and of the anchor's when there is one: in one call
+        pairs = [(tau_0, m_0)]
         if anchor is not None:
             tau_a, m_a = anchor
             if math.isfinite(m_a) and tau_a <= self.max_exposure:
-                baseline = float(table.LowestFailure(max(tau_a, 0.0), m_a))
+                pairs.append((max(tau_a, 0.0), m_a))
+        failures = table.LowestFailures(*np.array(pairs, dtype=float).T)
+        baseline = float(failures[1]) if len(pairs) > 1 else None
         margins = np.full(times.size, np.inf)
-        margins[priced] = table.RequiredMargin(times[priced], tau_0, m_0, float(budget), baseline)
+        margins[priced] = table.RequiredMargin(
+            times[priced], tau_0, m_0, float(budget), baseline, lowest_failure=failures[0]
+        )
         # a plan no margin keeps within ε (or too long to price: its excess risk counts as 1)
         # needs more than the lowest plan has: just above m_0 (not +inf), which excludes it as
         # surely and keeps the NLP's constraint gentle

@@ -196,12 +196,14 @@ class ExcessRiskTable:
     def _TotalDropTail(self, tau_0, m_0):
         if self.point:
             return TotalDropTail(self.model, tau_0, m_0)
-        # Σ_i w_i Σ_n Pois(n; λ_i τ_0) Q_n(m_0): the size tails once for every node
+        # Σ_i w_i Σ_n Pois(n; λ_i τ_0) Q_n(m_0): the size tails once for every node, and of all
+        # the margins at once (each pair's own counts read from them: Q_n(m) is pointwise)
         tau, m = np.broadcast_arrays(np.asarray(tau_0, float), np.asarray(m_0, float))
         out = np.empty(tau.shape)
-        for k, (t, margin) in enumerate(zip(tau.ravel(), m.ravel(), strict=True)):
-            n_max = PoissonCutoff(self.top_rate * float(t))
-            q = self.model.sizes.sum_tail(n_max, float(margin))
+        counts = [PoissonCutoff(self.top_rate * float(t)) for t in tau.ravel()]
+        tails = self.model.sizes.sum_tail(max(counts, default=0), m.ravel())
+        for k, (t, margin, n_max) in enumerate(zip(tau.ravel(), m.ravel(), counts, strict=True)):
+            q = tails[k, : n_max + 1]
             tail = float(self.weights @ (PoissonPmf(self.nodes * float(t), n_max) @ q))
             out.flat[k] = 1.0 if margin < 0.0 else min(max(tail, 0.0), 1.0)
         return out
@@ -220,6 +222,16 @@ class ExcessRiskTable:
         )
         tails = np.atleast_1d(self._TotalDropTail(pairs[0], pairs[1]))
         return tails[inverse.reshape(-1)].reshape(tau_0.shape)
+
+    def LowestFailures(self, lowest_times, lowest_margins) -> np.ndarray:
+        """:meth:`LowestFailure` of each pair (τ_0 [s], m_0 [-]) of two 1-d arrays, each the same
+        number as its own call gives (with a rate belief, the size tails of all the pairs in one
+        call)."""
+        times = np.asarray(lowest_times, dtype=float)
+        margins = np.asarray(lowest_margins, dtype=float)
+        if self.point:
+            return np.array([float(self.LowestFailure(t, m)) for t, m in zip(times, margins)])
+        return np.asarray(self._TotalDropTail(times, margins), dtype=float)
 
     def Risk(self, plan_time, plan_margin, lowest_time, lowest_margin) -> np.ndarray:
         """R(p) [-] of plans (τ_p [s], m_p [-]) against the lowest plan (τ_0 [s], m_0 [-]);
@@ -298,6 +310,7 @@ class ExcessRiskTable:
         lowest_margin: float,
         eps: float,
         baseline_failure: float | None = None,
+        lowest_failure: float | None = None,
     ):
         """m_req(τ_p) [-] for each plan time τ_p [s]: the smallest m_p ≤ m_0 with R ≤ ``eps``,
         to m_0 / 32² (two stages of 32 margins each, rounded up: conservative, deterministic);
@@ -306,7 +319,9 @@ class ExcessRiskTable:
 
         ``baseline_failure``: the failure probability [-] the excess is measured from when it is
         below the lowest plan's own P(F_0) (the mission's anchor, see the module docstring):
-        R = P(F_p) − min(P(F_0), baseline), never less conservative than against P(F_0)."""
+        R = P(F_p) − min(P(F_0), baseline), never less conservative than against P(F_0).
+        ``lowest_failure``: the lowest plan's P(F_0) [-] when the caller has it
+        (:meth:`LowestFailure` of (``lowest_time``, ``lowest_margin``)), else computed here."""
         tau_p = np.asarray(plan_time, dtype=float).reshape(-1)
         m_0 = float(lowest_margin)
         if m_0 <= 0.0 or tau_p.size == 0:
@@ -315,7 +330,10 @@ class ExcessRiskTable:
         # (broadcast over the trials)
         tau = tau_p[:, None]
         tau_0, lowest = np.asarray(float(lowest_time)), np.asarray(m_0)
-        fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
+        fail_0 = lowest_failure
+        if fail_0 is None:
+            fail_0 = self.LowestFailure(float(lowest_time), m_0)  # once for every trial
+        fail_0 = np.asarray(fail_0, dtype=float)
         if baseline_failure is not None:
             fail_0 = np.minimum(fail_0, float(baseline_failure))
         # every trial margin and M(u) lie in [0, m_0]: the grid's margins up to m_0 are read
