@@ -230,7 +230,8 @@ class ExcessRiskTable:
         times = np.asarray(lowest_times, dtype=float)
         margins = np.asarray(lowest_margins, dtype=float)
         if self.point:
-            return np.array([float(self.LowestFailure(t, m)) for t, m in zip(times, margins)])
+            pairs = zip(times, margins, strict=True)
+            return np.array([float(self.LowestFailure(t, m)) for t, m in pairs])
         return np.asarray(self._TotalDropTail(times, margins), dtype=float)
 
     def Risk(self, plan_time, plan_margin, lowest_time, lowest_margin) -> np.ndarray:
