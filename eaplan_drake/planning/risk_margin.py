@@ -145,6 +145,16 @@ def _SizeTails(sizes, counts: int, margin_step: float) -> np.ndarray:
     return q
 
 
+@functools.lru_cache(maxsize=64)
+def _Tiled(nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The u-quadrature's nodes and weights repeated for ``nodes`` rates, and their row numbers
+    (kept per count; read only)."""
+    tiled = np.tile(_U, nodes), np.tile(_W, nodes), np.arange(nodes * _U.size)
+    for a in tiled:
+        a.flags.writeable = False
+    return tiled
+
+
 class ExcessRiskTable:
     """R(p) and m_req for one fault model, from Q_n tabulated on margins 0, h, 2h, … 1
     (``margin_step`` h [-]) for exposures up to ``max_exposure`` [s].
@@ -174,9 +184,7 @@ class ExcessRiskTable:
             self.nodes = np.asarray(rates[0], dtype=float)
             self.weights = np.asarray(rates[1], dtype=float)
             self.slack = max(0.0, 1.0 - float(self.weights.sum()))
-            size = self.nodes.size
-            self.u, self.w = np.tile(_U, size), np.tile(_W, size)
-            self.row = np.arange(self.u.size)
+            self.u, self.w, self.row = _Tiled(self.nodes.size)
         self.top_rate = float(self.nodes.max())
         self.counts = _Counts(self.top_rate * self.max_exposure) + 1
         # a belief's counts move with it: its tails are kept for counts rounded up to 32s
@@ -373,6 +381,7 @@ class _Search:
         self.longer, self.level = tau >= tau_0, tau == tau_0
         self.all_longer, self.any_level = bool(self.longer.all()), bool(self.level.any())
         self.spare = 1.0 - fail_0
+        self.capped = not float(m_0) < 1.0
         # clip(R, 0, 1) ≤ ε is R ≤ ε for 0 ≤ ε < 1 (and NaN fails both)
         self.clipped = not 0.0 <= eps < 1.0
 
@@ -392,7 +401,9 @@ class _Search:
     def Within(self, trials) -> np.ndarray:
         """R ≤ ε at the trial margins (rows, k) [-], all in [0, m_0]."""
         margin = self.u * trials[..., None] + self.rest
-        index = (np.minimum(margin, 1.0) / self.table.step).astype(int) + self.offset
+        if self.capped:  # m_0 > 1: the margins above 1 read the grid's last column
+            margin = np.minimum(margin, 1.0)
+        index = (margin / self.table.step).astype(int) + self.offset
         fail_p = np.add.reduce(self.weighted * np.take(self.mixed, index), axis=-1)
         if not self.table.point:
             fail_p = fail_p + self.table.slack
