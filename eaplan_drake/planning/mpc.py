@@ -46,8 +46,33 @@ __all__ = [
     "MissionDecision",
     "MissionProblem",
     "MissionStep",
+    "StaircaseSteps",
     "StepPrediction",
 ]
+
+
+def StaircaseSteps(remaining_time, resolution: float) -> np.ndarray:
+    """t_rem(c1_j) [s] with every step of the staircase at its longest time.
+
+    The remaining time is whole repetitions (or lines) of the route: grid values of c1 on the
+    same step fly the same repetitions and differ only by their turns' lengths (up to 1.6 s on
+    ``survey``, against 52 s or more between steps). Remaining times that, sorted, follow each
+    other by less than ``resolution`` [s] (the planner's period h: it cannot act between them)
+    are one step, and each takes the step's longest time. The plans of a step are then priced
+    alike (energy to the end, risk of the exposure), conservatively, and the planner chooses
+    among them by quality alone: c1 no longer follows sub-second differences of turn length in
+    and out of the feasible set at every step."""
+    t = np.asarray(remaining_time, dtype=float).reshape(-1)
+    if t.size < 2:
+        return t.copy()
+    order = np.argsort(t, kind="stable")
+    ascending = t[order]
+    step = np.concatenate(([0], np.cumsum(np.diff(ascending) >= float(resolution))))
+    starts = np.flatnonzero(np.diff(step, prepend=-1))
+    longest = np.maximum.reduceat(ascending, starts)
+    out = np.empty_like(t)
+    out[order] = longest[step]
+    return out
 
 
 @dc.dataclass

@@ -30,6 +30,7 @@ a decision rule.
 """
 
 import copy
+import dataclasses
 import math
 import time
 
@@ -40,7 +41,7 @@ from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.planning.belief import SIZE_RESOLUTION
 from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
-from eaplan_drake.planning.mpc import MissionProblem, MissionStep
+from eaplan_drake.planning.mpc import MissionProblem, MissionStep, StaircaseSteps
 from eaplan_drake.planning.paper import Planner
 from eaplan_drake.planning.planner import PlannerDecision, PlannerObservation, PlannerPolicy
 from eaplan_drake.planning.relaxation import MissionProgram
@@ -255,8 +256,12 @@ class MpcPolicy(PlannerPolicy):
         return self._Step(observation, memory)[0]
 
     def _Step(self, observation, memory):
-        """(the step, the updated :data:`RiskMemory` or None)."""
+        """(the step, the updated :data:`RiskMemory` or None). The remaining times are read by
+        steps of the staircase (:func:`~eaplan_drake.planning.mpc.StaircaseSteps`)."""
         o, pb = observation, self.problem
+        if o.remaining_time is not None:
+            steps = StaircaseSteps(o.remaining_time, pb.step_length)
+            o = dataclasses.replace(o, remaining_time=steps)
         if not self._risk:
             return pb.Step(o), None
         tail = RiskMemory(np.array(memory[self._warm_size :], dtype=float))
