@@ -4,7 +4,7 @@ exact belief excess risk, the learnt sizes, and what a quiet minute and a drop d
 import numpy as np
 import pytest
 
-from eaplan_drake.params import FaultModelParams, PlannerParams
+from eaplan_drake.params import POINT_MODEL_VALUES, FaultModelParams, PlannerParams
 from eaplan_drake.planning.belief import (
     BeliefExcessRisk,
     FaultBelief,
@@ -65,7 +65,7 @@ def test_a_point_belief_table_is_the_point_table():
     )
 
 
-POINT = dict(prior_drops=0.0, prior_size_scale=1.0, prior_sizes=0.0)
+POINT = POINT_MODEL_VALUES
 """The point model of the stated rate and sizes (no belief, no learning)."""
 
 
@@ -141,3 +141,15 @@ def test_a_belief_beyond_the_tables_is_unpriced_not_raised():
         0.0, np.array([300.0, 400.0]), 300.0, 0.25, 0.025, flown=60.0, drops=400
     )
     assert isinstance(margin, UnpricedMargin) and "400 drops" in margin.why
+
+
+def test_the_point_model_keeps_what_is_stated_and_drops_the_learning():
+    belief = FaultModelParams(rate=0.004, size_bounds=[0.02, 0.2], recorded_drops=3)
+    belief.recorded_hours = 10.0
+    point = belief.PointModel()
+    assert belief.HoldsBelief() and not point.HoldsBelief()
+    assert point.rate == 0.004 and list(point.size_bounds) == [0.02, 0.2]
+    assert {k: getattr(point, k) for k in POINT_MODEL_VALUES} == POINT_MODEL_VALUES
+    assert belief.recorded_drops == 3 and belief.prior_drops == 0.5  # the original untouched
+    point.size_bounds[0] = 0.1
+    assert list(belief.size_bounds) == [0.02, 0.2]

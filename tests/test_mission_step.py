@@ -26,7 +26,7 @@ from eaplan_drake.planning.mpc import MissionProblem
 BATTERY = BatteryParams(k_b=AUTHORS_K_B)
 """The battery the golden states were computed with (the papers' pack, the authors' scaling)."""
 GOLDEN = json.loads((Path(__file__).parent / "golden" / "mission_steps.json").read_text())
-POINT_BELIEF = FaultModelParams(prior_drops=0.0, prior_size_scale=1.0, prior_sizes=0.0)
+POINT_BELIEF = FaultModelParams().PointModel()
 """The point fault model the golden risk steps were computed with (no belief, no learning)."""
 SETTINGS = {
     "fixed": {"reserve": "fixed", "fault_reserve_time": 0.0},

@@ -189,7 +189,7 @@ def test_system_forced_failure_is_counted_and_falls_back(table):
 def test_mpc_decision_predicts_its_end_soc_and_the_port_shows_it(table):
     # the point belief: the port's update at t = 1 then plans as the decision at t = 0 did (a
     # learning belief also learns from the second flown between them)
-    point = FaultModelParams(prior_drops=0.0, prior_size_scale=1.0, prior_sizes=0.0)
+    point = FaultModelParams().PointModel()
     params = PlannerParams(policy="mpc", warmup=1.0, period=1.0, fault_model=point)
     policy = _Policy(params, table)
     system = _Scheduler(params, table, [10.0], policy=policy)

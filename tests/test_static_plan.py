@@ -21,7 +21,7 @@ GOLDEN = json.loads((Path(__file__).parent / "golden" / "mission_steps.json").re
 CASES = [c for c in GOLDEN["cases"] if c["setting"] == "risk"]
 
 
-POINT_BELIEF = FaultModelParams(prior_drops=0.0, prior_size_scale=1.0, prior_sizes=0.0)
+POINT_BELIEF = FaultModelParams().PointModel()
 """The stated point model (no belief): what the independent enumeration prices with."""
 
 

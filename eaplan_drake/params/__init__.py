@@ -69,6 +69,7 @@ from eaplan_drake.params.periods import RATE_TOLERANCE, IntegerMultiple, TicksPe
 from eaplan_drake.params.planner import (
     C1_MAX_TOLERANCE,
     FAULT_SIZE_DISTRIBUTIONS,
+    POINT_MODEL_VALUES,
     RESERVE_RULES,
     FaultModelParams,
     PlannerParams,
@@ -87,6 +88,7 @@ __all__ = [
     "EstimatorParams",
     "FAULT_SIZE_DISTRIBUTIONS",
     "FaultModelParams",
+    "POINT_MODEL_VALUES",
     "GuidanceParams",
     "GustParams",
     "IntegerMultiple",

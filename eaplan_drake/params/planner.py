@@ -1,5 +1,6 @@
 """The planner-scheduler's parameters, and its belief about battery faults."""
 
+import copy
 import dataclasses as dc
 
 import numpy as np
@@ -17,6 +18,16 @@ from eaplan_drake.params.checks import (
 )
 from eaplan_drake.params.walk import _Params
 from eaplan_drake.registry import POLICIES
+
+POINT_MODEL_VALUES = {
+    "prior_drops": 0.0,
+    "recorded_drops": 0,
+    "recorded_hours": 0.0,
+    "prior_size_scale": 1.0,
+    "prior_sizes": 0.0,
+}
+"""The keys of ``planner.fault_model`` that say how the planner's belief learns (not what a world
+draws), at their values for a point model (:meth:`FaultModelParams.PointModel`)."""
 
 
 @dc.dataclass
@@ -62,6 +73,15 @@ class FaultModelParams(_Params):
     worth when the planner learns from the drops it detects in flight (a Dirichlet-process
     predictive, :class:`~eaplan_drake.planning.learnt_sizes.DirichletDrops`), in [0, 1000];
     0: the sizes do not learn. Ignored by the worlds' own faults (``world_fault_model``)."""
+
+    def PointModel(self) -> "FaultModelParams":
+        """A copy that holds the stated point model: the same ``rate`` and sizes, none of the
+        learning (:data:`POINT_MODEL_VALUES`: no prior drops, no records, the sizes as stated and
+        not learnt). What a world's faults are drawn from, and the planner of earlier versions."""
+        point = copy.deepcopy(self)
+        for key, value in POINT_MODEL_VALUES.items():
+            setattr(point, key, value)
+        return point
 
     def HoldsBelief(self) -> bool:
         """Whether the planner holds a belief over the rate (``prior_drops`` or records) rather

@@ -21,7 +21,6 @@ it bounds the rate, not any one mission. With no failure at all, n worlds bound 
 (:func:`~eaplan_drake.studies.statistics.WorldsNeeded`).
 """
 
-import copy
 import dataclasses as dc
 import math
 from pathlib import Path
@@ -30,7 +29,7 @@ import numpy as np
 
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
-from eaplan_drake.params import FaultModelParams, Scenario
+from eaplan_drake.params import POINT_MODEL_VALUES, FaultModelParams, Scenario
 from eaplan_drake.planning.belief import PRIOR_DROPS
 from eaplan_drake.studies.bounds import (
     PlainPower,
@@ -432,18 +431,10 @@ def CertifyReport(certificate: Certificate) -> str:
     return "\n".join(lines) + "\n"
 
 
-POINT_MODEL = {
-    "prior_drops": 0.0,
-    "recorded_drops": 0,
-    "recorded_hours": 0.0,
-    "prior_size_scale": 1.0,
-    "prior_sizes": 0.0,
-}
+LEARNING_KEYS = tuple(POINT_MODEL_VALUES)
 """The keys of ``planner.fault_model`` that say how the planner's belief learns, not what a world
-draws, at their values for a point model: what a world's faults are drawn from."""
-
-LEARNING_KEYS = tuple(POINT_MODEL)
-"""Those keys' names."""
+draws (a world's faults are drawn from the point model,
+:meth:`~eaplan_drake.params.FaultModelParams.PointModel`)."""
 
 
 def WorldFaultModel(belief: FaultModelParams, assignments) -> FaultModelParams:
@@ -452,9 +443,7 @@ def WorldFaultModel(belief: FaultModelParams, assignments) -> FaultModelParams:
     ``size_bounds=[0.05,0.25]``, …) on a copy; a bad key or value is one line naming it. The
     worlds draw from a point model: the belief's learning keys (``prior_drops``, the records,
     ``prior_sizes``) are not theirs."""
-    model = copy.deepcopy(belief)
-    for key, value in POINT_MODEL.items():
-        setattr(model, key, value)
+    model = belief.PointModel()
     keys = [f.name for f in dc.fields(FaultModelParams) if f.name not in LEARNING_KEYS]
     for assignment in assignments or []:
         key, sep, value = str(assignment).partition("=")
