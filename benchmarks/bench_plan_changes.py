@@ -1,13 +1,14 @@
 """How often a policy changes its plan in flight: c1 changes and reversals, and c2 dips to its
 lowest value, per flight on the first worlds ``eaplan-drake certify`` draws (the policy flights,
-at the ``fast`` rates), with each flight's status and mission quality. Not a test.
+at the ``fast`` rates), with each flight's status, mission quality and the drops that fell inside
+it. Not a test.
 
     python3 benchmarks/bench_plan_changes.py [--worlds 24] [--set KEY=VALUE ...]
 
 A reversal is a change of c1 in the direction opposite to the previous change; a c2 dip is a
 stretch at the lowest value of c2's first parameter (the value it flies during the warm-up) after
 a stretch above it. Prints one row per
-world and the means (quality with lost = 0).
+world and the means (quality with lost = 0), and the dips in flights that met no drop.
 """
 
 import argparse
@@ -44,8 +45,10 @@ def main() -> None:
     args = parser.parse_args()
     overrides = [OverrideFromAssignment(a) for a in args.set]
     rows = []
-    print("| world | status | quality | c1 changes | c1 reversals | c2 dips | c2 lowest [s] |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    print(
+        "| world | status | quality | drops | c1 changes | c1 reversals | c2 dips | c2 lowest [s] |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for keys, scenario in StudyFlights(CertifyStudy(args.scenario, args.worlds)):
         if keys["policy"] == "lowest":
             continue
@@ -57,17 +60,24 @@ def main() -> None:
             np.asarray(log["path_parameters"])[:, 0],
             np.asarray(log["computation_parameters"])[:, 0],
         )
-        rows.append((quality, *c.values()))
+        drops = sum(1 for f in scenario.battery.faults if f.time < float(log.times[-1]))
+        rows.append((quality, *c.values(), drops))
         print(
-            f"| {keys['world']} | {s['status']} | {quality:.4f} | {c['c1_changes']} | "
+            f"| {keys['world']} | {s['status']} | {quality:.4f} | {drops} | {c['c1_changes']} | "
             f"{c['c1_reversals']} | {c['c2_dips']} | {c['c2_lowest_time']:.0f} |",
             flush=True,
         )
-    mean = np.mean(np.array(rows, dtype=float), axis=0)
+    table = np.array(rows, dtype=float)
+    mean = np.mean(table, axis=0)
+    quiet = table[:, 5] == 0
     print()
     print(
         f"mean of {len(rows)} flights: quality {mean[0]:.4f}, c1 changes {mean[1]:.1f}, "
         f"c1 reversals {mean[2]:.1f}, c2 dips {mean[3]:.2f}, c2 at its lowest {mean[4]:.0f} s"
+    )
+    print(
+        f"{int(quiet.sum())} flights met no drop: c2 dips {int(table[quiet, 3].sum())} in all; "
+        f"{int((~quiet).sum())} met one or more: c2 dips {int(table[~quiet, 3].sum())}"
     )
 
 
