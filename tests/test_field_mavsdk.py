@@ -139,3 +139,28 @@ def test_the_wpl_file_imports_through_mavsdk(mission_raw, survey):
     assert added.command == items[0].command and (added.x, added.y) == (items[0].x, items[0].y)
     _CheckItems(items, MissionItems(route, field, altitude=ALTITUDE, ends=LANDING))
     assert data.geofence_items == []
+
+
+def test_mavsdk_reads_the_exclusion_fences_as_exported(mission_raw, survey, tmp_path):
+    """A no-fly polygon exported as an exclusion comes back from MAVSDK as its own polygon
+    (``MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION``), every vertex within 1 m, after the
+    inclusion polygon."""
+    field, route, _, fence = survey
+    ring = np.array([(70.0, 70.0), (70.0, 130.0), (130.0, 130.0), (130.0, 70.0)])
+    paths = WriteMissions(
+        tmp_path,
+        route,
+        field,
+        altitude=ALTITUDE,
+        cruise_speed=15.0,
+        ends=LANDING,
+        fence=Fence(fence.inclusion, (ring,)),
+    )
+    data = mission_raw.import_qgroundcontrol_mission(str(paths["qgc_plan"]))
+    vertices = [g for g in data.geofence_items if g.mission_type == MISSION_TYPE_FENCE]
+    inclusion = [g for g in vertices if g.command == FENCE_VERTEX_INCLUSION]
+    exclusion = [g for g in vertices if g.command == FENCE_VERTEX_EXCLUSION]
+    assert len(inclusion) + len(exclusion) == len(vertices)
+    assert [g.param1 for g in exclusion] == [len(ring)] * len(ring)  # the polygon's vertex count
+    assert np.linalg.norm(_Local(exclusion) - ring, axis=1).max() < 1.0
+    assert np.linalg.norm(_Local(inclusion) - fence.inclusion, axis=1).max() < 1.0
