@@ -11,6 +11,17 @@ flown with the whole closed loop, on the shipped field and three random ones.
     python3 benchmarks/bench_fields.py [--fields 20] [--out benchmarks/results/fields.json]
 
 Prints one row per field and a summary; writes the rows (JSON) whole or not at all.
+
+With ``--missions``, instead: the missions of the shipped field and ``--fields`` random ones
+(the funen scenario's lowest plan over each, its airspace as the geofence, a landing at home),
+exported and read back through the real parsers installed: pymavlink (WPL), MAVSDK ≥ 4 (the QGC
+plan and the WPL file, in process on a ``raw://`` link), xml.etree (Paparazzi; lxml against
+Paparazzi's DTD when ``PAPARAZZI_HOME`` is set). Per field: the largest distance between an item
+read back and the route's own item [m] (≤ 1 m; for Paparazzi's waypoints, which are not one per
+item, the distance to the nearest item), and the points of the route, the legs home and
+the items read back that lie outside the fence read back from the QGC plan (0).
+
+    python3 benchmarks/bench_fields.py --missions [--fields 5]
 """
 
 import argparse
@@ -101,11 +112,170 @@ def PredictionRow(name: str, scenario) -> dict:
     }
 
 
+def _MavsdkMissionRaw():
+    """MAVSDK's MissionRaw on an in-process raw:// link (no socket), or None without mavsdk 4."""
+    try:
+        import mavsdk
+        from mavsdk.plugins.mission_raw import MissionRaw
+        from pymavlink.dialects.v20 import common as mavlink
+    except ImportError:
+        return None, None
+    import time
+
+    sdk = mavsdk.Mavsdk(
+        mavsdk.Configuration.create_with_component_type(mavsdk.ComponentType.GROUND_STATION)
+    )
+    sdk.add_any_connection("raw://")
+    sdk.subscribe_raw_bytes_to_be_sent(lambda data: None)
+    link = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    heartbeat = link.heartbeat_encode(
+        mavlink.MAV_TYPE_FIXED_WING, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 0
+    ).pack(link)
+    for _ in range(100):
+        sdk.pass_received_raw_bytes(heartbeat)
+        if sdk.system_count():
+            return sdk, MissionRaw(sdk.get_systems()[0])
+        time.sleep(0.02)
+    sdk.destroy()
+    return None, None
+
+
+def MissionRow(name: str, field_path: str, tmp: Path, mission_raw) -> dict:
+    """The field's missions exported and read back (module docstring)."""
+    import json
+    import os
+    import xml.etree.ElementTree as ET
+
+    from pymavlink import mavwp
+
+    from eaplan_drake.field.airspace import MakeAirspace, PointsOutside, RoutePoints
+    from eaplan_drake.field.missions import (
+        MAV_CMD_NAV_RETURN_TO_LAUNCH,
+        Fence,
+        MissionEnds,
+        MissionItems,
+        WriteMissions,
+    )
+    from eaplan_drake.field.plan import WithHomeLegs
+
+    s = LoadNamedScenario("funen")
+    s.coverage.field = field_path
+    s = LowestPlan(s)
+    plan = ResolveScenario(s).plan
+    route, field = plan.plan.route, plan.field
+    frame = field.frame
+    home = tuple(route.legs[0].start)
+    ends = MissionEnds(home, 0.0, "land")
+    airspace = MakeAirspace(route, field, s, home=home, extra_points=[ends.ApproachFix(route)])
+    out = tmp / name.replace(" ", "_")
+    out.mkdir()
+    paths = WriteMissions(
+        out,
+        route,
+        field,
+        altitude=60.0,
+        cruise_speed=s.vehicle.airspeed,
+        ends=ends,
+        fence=airspace.Fence(),
+    )
+    expected = MissionItems(route, field, altitude=60.0, ends=ends)
+    placed = [i for i, e in enumerate(expected) if e.command != MAV_CMD_NAV_RETURN_TO_LAUNCH]
+    want = np.array([expected[i].local for i in placed])
+    errors, read_points = {}, []
+
+    def Error(key, lonlat):
+        local = frame.ToLocal(lonlat)
+        read_points.append(local)
+        errors[key] = float(np.max(np.linalg.norm(local - want, axis=1)))
+
+    loader = mavwp.MAVWPLoader()
+    loader.load(str(paths["wpl"]))
+    wps = [loader.wp(i) for i in range(loader.count())]
+    Error("wpl_pymavlink", [[wps[i].y, wps[i].x] for i in placed])
+    qgc = json.loads(paths["qgc_plan"].read_text())
+    (inclusion,) = [p for p in qgc["geoFence"]["polygons"] if p["inclusion"]]
+    fence = Fence(frame.ToLocal([[lon, lat] for lat, lon in inclusion["polygon"]]), ())
+    if mission_raw is not None:
+        # MAVSDK: the QGC plan's planned home first (item 0 here); the WPL file's item 0 twice
+        q = mission_raw.import_qgroundcontrol_mission(str(paths["qgc_plan"])).mission_items
+        Error("qgc_mavsdk", [[q[i].y * 1e-7, q[i].x * 1e-7] for i in placed])
+        w = mission_raw.import_mission_planner_mission(str(paths["wpl"])).mission_items[1:]
+        Error("wpl_mavsdk", [[w[i].y * 1e-7, w[i].x * 1e-7] for i in placed])
+    root = ET.fromstring(paths["paparazzi"].read_text())
+    wp = [
+        (float(w.get("lon")), float(w.get("lat")))
+        for w in root.find("waypoints")
+        if not w.get("name").startswith("A")
+    ]
+    local = frame.ToLocal(wp)
+    read_points.append(local)
+    nearest = np.min(np.linalg.norm(local[:, None, :] - want[None, :, :], axis=2), axis=1)
+    errors["paparazzi_xml"] = float(np.max(nearest))
+    dtd = Path(os.environ.get("PAPARAZZI_HOME", "/nonexistent")) / "conf/flight_plans"
+    valid = None  # no DTD here
+    if (dtd / "flight_plan.dtd").is_file():
+        from lxml import etree
+
+        valid = bool(etree.DTD(str(dtd / "flight_plan.dtd")).validate(
+            etree.parse(str(paths["paparazzi"]))
+        ))  # fmt: skip
+    points = np.concatenate([RoutePoints(WithHomeLegs(route, home)), *read_points])
+    check = PointsOutside(points, fence)
+    return {
+        "field": name,
+        "items": len(expected),
+        "errors_m": errors,
+        "round_trip_m": max(errors.values()),
+        "points": check["points"],
+        "outside": check["outside"],
+        "paparazzi_dtd_valid": valid,
+    }
+
+
+def MissionsMain(args) -> int:
+    sdk, mission_raw = _MavsdkMissionRaw()
+    rows = []
+    print("parsers: pymavlink (WPL), xml.etree (Paparazzi)" + (", MAVSDK (QGC, WPL)" if sdk else
+          " (MAVSDK >= 4 not installed)"))  # fmt: skip
+    print("field       items  round trip m  worst parser     points  outside")
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            cases = [("funen", "funen_field")]
+            for seed in range(args.fields):
+                path = Path(tmp) / f"random_{seed}.geojson"
+                path.write_text(FieldGeoJsonText(RandomField(seed, holes=seed % 3)))
+                cases.append((f"random {seed}", str(path)))
+            for name, path in cases:
+                r = MissionRow(name, path, Path(tmp), mission_raw)
+                rows.append(r)
+                worst = max(r["errors_m"], key=r["errors_m"].get)
+                print(
+                    f"{name:<11} {r['items']:>5} {r['round_trip_m']:13.3f}  {worst:<15} "
+                    f"{r['points']:>7} {r['outside']:>8}"
+                )
+    finally:
+        if sdk is not None:
+            sdk.destroy()
+    ok = sum(r["round_trip_m"] <= 1.0 and r["outside"] == 0 for r in rows)
+    print(
+        f"\n{ok}/{len(rows)} fields: every item within 1 m in every parser and 0 points outside "
+        f"the fence; worst round trip {max(r['round_trip_m'] for r in rows):.3f} m"
+    )
+    text = StrictJson({"missions": rows})
+    AtomicWrite(Path(args.out), lambda f: f.write(text), binary=False)
+    return 0 if ok == len(rows) else 1
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fields", type=int, default=20)
-    parser.add_argument("--out", default="benchmarks/results/fields.json")
+    parser.add_argument("--out", default=None)
+    parser.add_argument("--missions", action="store_true", help="the missions' round trip")
     args = parser.parse_args(argv)
+    if args.missions:
+        args.out = args.out or "benchmarks/results/fields_missions.json"
+        return MissionsMain(args)
+    args.out = args.out or "benchmarks/results/fields.json"
     rows = []
     print("field       holes cells  ha   covered  line out  turn out  complete  time/nominal")
     for seed in range(args.fields):
