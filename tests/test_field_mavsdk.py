@@ -21,26 +21,20 @@ except ImportError:  # mavsdk < 4: the gRPC package, another API
     pytest.skip("mavsdk >= 4 (the native binding) is needed", allow_module_level=True)
 mavlink = pytest.importorskip("pymavlink.dialects.v20.common", reason="pymavlink not installed")
 
+from test_field_missions import ALTITUDE, FRAME, GROUND, HOME, LANDING, Field  # noqa: E402
+
 from eaplan_drake.field.airspace import MakeAirspace, PointsOutside, RoutePoints  # noqa: E402
 from eaplan_drake.field.decompose import ChooseSweepDirection  # noqa: E402
-from eaplan_drake.field.geodesy import LocalFrame  # noqa: E402
 from eaplan_drake.field.missions import (  # noqa: E402
     MAV_CMD_NAV_RETURN_TO_LAUNCH,
     Fence,
-    MissionEnds,
     MissionItems,
     WriteMissions,
 )
 from eaplan_drake.field.plan import WithHomeLegs  # noqa: E402
-from eaplan_drake.field.readers import FieldFromLocal  # noqa: E402
 from eaplan_drake.field.route import MakeRoute  # noqa: E402
 from eaplan_drake.params import Scenario  # noqa: E402
 
-FRAME = LocalFrame(10.3250, 55.4720)
-ALTITUDE = 60.0
-GROUND = 470.0
-HOME = (-80.0, -50.0)
-LANDING = MissionEnds(HOME, GROUND, "land", (0.0, -1.0))
 FENCE_VERTEX_INCLUSION = 5001  # MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
 FENCE_VERTEX_EXCLUSION = 5002  # MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
 MISSION_TYPE_FENCE = 1
@@ -73,11 +67,7 @@ def mission_raw():
 
 @pytest.fixture(scope="module")
 def survey(tmp_path_factory):
-    field = FieldFromLocal(
-        [(0, 0), (500, 0), (500, 400), (300, 400), (300, 200), (200, 200), (200, 400), (0, 400)],
-        [[(60, 60), (60, 140), (140, 140), (140, 60)]],
-        FRAME,
-    )
+    field = Field()  # the field, frame, home and landing of the other missions' tests
     route = MakeRoute(ChooseSweepDirection(field.Polygon(), 10.0).decomposition, 10.0, 62.45)
     scenario = Scenario()
     scenario.wind.speed = 10.0
