@@ -146,6 +146,7 @@ POLICIES = Registry(
         "static": "eaplan_drake.planning.policies:MakeStaticPolicy",
         "hindsight": "eaplan_drake.planning.policies:MakeStaticPolicy",
         "static_takeoff": "eaplan_drake.planning.policies:MakeStaticTakeoffPolicy",
+        "mdp": "eaplan_drake.planning.policies:MakeMdpPolicy",
     },
     info={
         "mpc": PolicyInfo(
@@ -177,6 +178,12 @@ POLICIES = Registry(
             "flew the lowest plan from then on",
             "a static plan within the risk ε was chosen at take-off",
             "no NLP solved: the static plan is chosen on the grids at take-off",
+        ),
+        "mdp": PolicyInfo(
+            "even the lowest plan keeps no margin at take-off, or every plan is lost in the model",
+            "flew the lowest plan there",
+            "the MDP solved at take-off gave an action",
+            "no NLP solved: the MDP is solved by dynamic programming at take-off",
         ),
     },
     default_info=PolicyInfo(),

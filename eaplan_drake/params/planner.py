@@ -175,7 +175,7 @@ class PlannerParams(_Params):
 
     policy: str = "mpc"
     """Planner policy, one of mpc, paper, greedy, greedy_authors, static, hindsight,
-    static_takeoff."""
+    static_takeoff, mdp."""
     period: float = 1.0
     """h_T, re-planning step [s]."""
     horizon: int = 6
@@ -314,9 +314,9 @@ class PlannerParams(_Params):
             f"must be one of {', '.join(RESERVE_RULES)}, got {self.reserve!r}",
         )
         _check(
-            self.policy != "static_takeoff" or self.reserve == "risk",
+            self.policy not in ("static_takeoff", "mdp") or self.reserve == "risk",
             f"{key}.reserve",
-            f'must be "risk" with {key}.policy static_takeoff (it prices its plan with '
+            f'must be "risk" with {key}.policy {self.policy} (it prices its plans with '
             f"{key}.fault_model), got {self.reserve!r}",
         )
         _check(

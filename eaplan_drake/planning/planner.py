@@ -105,6 +105,7 @@ DECISION_KINDS = {
     "invalid": "an observation not finite: the lowest plan, infeasible",
     "chosen": "static_takeoff: the static plan chosen at take-off",
     "held": "static_takeoff: the plan chosen at take-off, held",
+    "mdp": "mdp: the action of the MDP solved at take-off (or held)",
 }
 """The kinds of the mpc's (and static_takeoff's) decisions (:attr:`PlannerDecision.kind`)."""
 
@@ -280,9 +281,10 @@ class PlannerScheduler(LeafSystem):
 
         Keys: solves (planner steps), failures (failed solves answered by the deterministic
         fallback), infeasible (steps whose policy constraint could not be met), kinds (steps
-        per :attr:`PlannerDecision.kind`, for a policy that says) and first_status (the status
-        of the first step of each kind), solve_times and
-        step_times [s] (solver only / the whole step), median_solve_time, p95_solve_time,
+        per :attr:`PlannerDecision.kind`, for a policy that says), policy_figures (what a
+        policy predicted of its mission, e.g. ``mdp``'s take-off value; empty for most),
+        first_status (the status of the first step of each kind), solve_times and step_times
+        [s] (solver only / the whole step), median_solve_time, p95_solve_time,
         median_step_time, p95_step_time [s] (None before the first solve).
         """
 
@@ -291,6 +293,7 @@ class PlannerScheduler(LeafSystem):
 
         return {
             "policy": self._policy.name,
+            "policy_figures": dict(getattr(self._policy, "figures", {})),
             "solves": self._solves,
             "failures": self._failures,
             "infeasible": self._infeasible,

@@ -25,6 +25,9 @@ a decision rule.
 - ``static`` (:class:`StaticPolicy`): hold the initial parameters.
 - ``static_takeoff`` (:class:`StaticTakeoffPolicy`): the pilot's baseline, the best static plan
   within the risk ε chosen once at take-off and flown unchanged.
+- ``mdp`` (:class:`MdpPolicy`): the best non-clairvoyant policy of the planner's fluid model
+  at take-off, a dynamic programme solved once and flown by lookup
+  (:mod:`eaplan_drake.planning.mdp`); a yardstick under study, not a better planner.
 - ``hindsight``: not a policy of the loop but the best constant pair of a grid flown on the same
   world (:func:`~eaplan_drake.simulation.FlyHindsight`); each of its flights is static.
 """
@@ -41,6 +44,7 @@ from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.planning.belief import SIZE_RESOLUTION
 from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
+from eaplan_drake.planning.mdp import MdpGrid, MissionMdpFromStep, SolveConstrained
 from eaplan_drake.planning.mpc import MissionProblem, MissionStep, StaircaseSteps
 from eaplan_drake.planning.paper import Planner
 from eaplan_drake.planning.planner import PlannerDecision, PlannerObservation, PlannerPolicy
@@ -60,6 +64,8 @@ __all__ = [
     "MakePolicy",
     "MakeStaticPolicy",
     "MpcPolicy",
+    "MakeMdpPolicy",
+    "MdpPolicy",
     "PaperPolicy",
     "RiskMemory",
     "UNSET",
@@ -151,6 +157,99 @@ class StaticTakeoffPolicy(PlannerPolicy):
             "chosen at take-off" if d.feasible else "infeasible at take-off: the lowest plan",
             kind="chosen" if d.feasible else "lowest",
             **_Prediction(pb, d),
+        )
+
+
+class MdpPolicy(PlannerPolicy):
+    """The best non-clairvoyant policy of the planner's fluid model (``mdp``): at its first
+    step (take-off, as ``static_takeoff``) the mission's MDP
+    (:func:`~eaplan_drake.planning.mdp.MissionMdpFromStep`) is solved for the chance constraint
+    at ε = ``planner.risk`` (:func:`~eaplan_drake.planning.mdp.SolveConstrained`); at every
+    step after, the action with the best value to the end of the progress stage from the
+    flight's state (margin, time flown, quality so far; the progress read from the route's own
+    remaining times, :meth:`~eaplan_drake.planning.mdp.MdpSolution.Stage`) and optimal
+    after it.
+
+    The action is held until the stage ends or a drop is detected (the SoC more than
+    :data:`FALLBACK_DROP` below what the held action spends), the MDP's own decision epochs.
+
+    Memory: [solved (0/1), take-off time [s], ∫J dt so far, time of the last step [s], J of the
+    plan flown, the action (s, k) flown, the stage it was chosen for, the SoC [-] and the time
+    [s] it was chosen at]. The solved tables are kept by the policy per take-off time
+    (a pure function of the take-off observation)."""
+
+    name = "mdp"
+
+    def __init__(self, problem: MissionProblem, grid: MdpGrid | None = None):
+        if problem.risk_reserve is None:
+            raise ValueError(
+                "planner.policy: mdp prices its plans with the fault model; "
+                'set planner.reserve: "risk"'
+            )
+        self.problem = problem
+        self.grid = MdpGrid() if grid is None else grid
+        self.figures: dict = {}
+        """The take-off figures of the last solve (quality, completion, excess, μ)."""
+        self._solutions: dict = {}
+
+    def InitialMemory(self) -> np.ndarray:
+        return np.zeros(10)
+
+    def _Lowest(self, memory, why: str, feasible: bool) -> PlannerDecision:
+        pb = self.problem
+        low = pb.candidates[pb.lowest_candidate]
+        return PlannerDecision(
+            float(pb.grid[0]), low.copy(), memory, True, feasible, why, kind="lowest"
+        )
+
+    def Plan(self, observation, memory) -> PlannerDecision:
+        o, pb = observation, self.problem
+        if not _Finite(o):
+            return _InvalidInput(pb, memory)
+        o = dataclasses.replace(o, remaining_time=StaircaseSteps(o.remaining_time, pb.step_length))
+        memory = np.array(memory, dtype=float)
+        if memory[0] == 0.0:
+            step = pb.Step(o, budget=float(pb.params.risk))
+            mdp = MissionMdpFromStep(step, o, self.grid) if step.priced else None
+            if mdp is not None:
+                solution, self.figures = SolveConstrained(mdp, float(pb.params.risk))
+                self._solutions[float(o.time)] = solution
+            quality = mdp.flown_quality if mdp is not None else 0.0
+            memory[:] = (1.0, o.time, quality * o.time, o.time, quality, 0, 0, -1, 0, 0)
+        memory[2] += memory[4] * (float(o.time) - memory[3])
+        memory[3] = float(o.time)
+        solution = self._solutions.get(float(memory[1]))
+        if solution is None:
+            return self._Lowest(memory, "infeasible at take-off: the lowest plan", False)
+        mdp = solution.mdp
+        left = np.array([float(o.remaining_time[j]) for j in mdp.path_index])
+        held, row = int(memory[5]), int(memory[6])
+        n = solution.Stage(left)
+        predicted = memory[8] - mdp.rates[row] * (float(o.time) - memory[9])
+        if memory[7] == n and not float(o.soc) < predicted - FALLBACK_DROP:
+            return self._Held(memory, mdp, held, row, n)
+        margin = float(o.soc) - pb.reserve_soc
+        flown = max(float(o.time), 1e-9)
+        values = solution.ActionValues(margin, flown, memory[2] / flown, left, pb.step_length)
+        values = values[..., 0]
+        if not np.max(values) > 0.0:
+            return self._Lowest(memory, "lost in the model from here: the lowest plan", False)
+        held, row = np.unravel_index(int(np.argmax(values)), values.shape)
+        memory[5:] = (held, row, n, float(o.soc), float(o.time))
+        return self._Held(memory, mdp, held, row, n, "the MDP's action for stage")
+
+    def _Held(self, memory, mdp, s, k, n, why="held to the end of stage"):
+        """The action (s, k) of the MDP, held until the stage n ends or a drop comes."""
+        pb = self.problem
+        memory[4] = float(mdp.quality[s, k])
+        return PlannerDecision(
+            float(pb.grid[mdp.path_index[s]]),
+            pb.candidates[k].copy(),
+            memory,
+            True,
+            True,
+            f"{why} {n + 1} of {mdp.grid.stages}",
+            kind="mdp",
         )
 
 
@@ -541,6 +640,12 @@ def MakeStaticTakeoffPolicy(planner, table, order, battery, *, path_parameter_gr
     """``static_takeoff``: :class:`StaticTakeoffPolicy`, the best static plan at take-off."""
     problem = MissionProblem(planner, table, order, battery, path_parameter_grid, integer)
     return StaticTakeoffPolicy(problem)
+
+
+def MakeMdpPolicy(planner, table, order, battery, *, path_parameter_grid, integer, **_):
+    """``mdp``: :class:`MdpPolicy`, the MDP solved at take-off and flown."""
+    problem = MissionProblem(planner, table, order, battery, path_parameter_grid, integer)
+    return MdpPolicy(problem)
 
 
 def MakeMpcPolicy(planner, table, order, battery, *, path_parameter_grid, integer, **_):

@@ -213,6 +213,9 @@ def FlyRow(keys: dict, scenario: Scenario, save_logs: str = "") -> dict:
             wind_speed=scenario.wind.speed,
             **InFlightFaults(scenario, s["duration"]),
         )
+        figures = s["planner"].get("policy_figures") or {}
+        if "quality" in figures:  # what the policy predicted of the mission (mdp)
+            row.update(predicted_quality=figures["quality"], predicted_excess=figures["excess"])
         if save_logs:
             log.Save(Path(save_logs) / f"{row['id']}")
     except Exception as e:  # one flight's error is its row, never the study's end
