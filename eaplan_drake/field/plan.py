@@ -25,7 +25,7 @@ import numpy as np
 
 from eaplan_drake.field.decompose import ChooseSweepDirection, Decompose, SweepChoice, SweepLines
 from eaplan_drake.field.readers import Field
-from eaplan_drake.field.route import Leg, MakeRoute, Route, RouteEnergy
+from eaplan_drake.field.route import CellSweepLines, Leg, MakeRoute, Route, RouteEnergy
 
 __all__ = [
     "AirspaceSummary",
@@ -34,6 +34,7 @@ __all__ = [
     "FieldPlan",
     "FormatFieldPlan",
     "WithHomeLegs",
+    "LOST_LINE_WEIGHT",
     "LineSpacing",
     "LowestPlanEnergy",
     "LowestPlanRisk",
@@ -55,6 +56,13 @@ class FieldPlan:
     route: Route
     chosen_by: str
     """How θ was chosen (one line)."""
+    no_fly: object = None
+    """The :class:`~eaplan_drake.field.nofly.NoFly` the route keeps out of, or None."""
+
+
+LOST_LINE_WEIGHT = 10.0
+"""How many metres flown a metre of survey line left out near a no-fly polygon counts as when
+the sweep direction is chosen [-] (:func:`MakeFieldPlan`)."""
 
 
 def LineSpacing(coverage, c1: float) -> float:
@@ -77,6 +85,7 @@ def MakeFieldPlan(
     cells: str = "best",
     min_line_length: float = 0.0,
     start=None,
+    no_fly=(),
 ) -> FieldPlan:
     """The plan over ``field`` at line spacing x_d = ``spacing`` and turns of at least r_min =
     ``min_turning_radius`` [m]; θ = ``theta_deg`` [deg from east] or, when None, the direction
@@ -86,19 +95,43 @@ def MakeFieldPlan(
     :func:`~eaplan_drake.field.route.MakeRoute`); lines shorter than
     ``min_line_length`` [m] are left out (:func:`~eaplan_drake.field.route.CellSweepLines`: 4 ε
     for a plan the sequencer flies). With ``start`` [m] (home) the route enters the field at the
-    cell and end nearest to it (the sweep direction is still the shortest route's)."""
+    cell and end nearest to it (the sweep direction is still the shortest route's). With
+    ``no_fly`` polygons [m] the route keeps out of them (:mod:`eaplan_drake.field.nofly`): the
+    cells are the field's minus them, and θ is the direction of the shortest route counting each
+    metre of survey line the polygons cost as :data:`LOST_LINE_WEIGHT` m flown."""
     kinds = {"convex": (True,), "monotone": (False,), "best": (True, False)}
     if cells not in kinds:
         raise ValueError(f"cells: must be one of {', '.join(kinds)}, got {cells!r}")
     if theta_deg is not None and not math.isfinite(theta_deg):
         raise ValueError(f"--sweep-deg: must be a finite angle [deg], got {theta_deg!r}")
     polygon = field.Polygon()
+    avoid = None
+    if len(no_fly):
+        from eaplan_drake.field.nofly import MakeNoFly, SurveyPolygon
+
+        avoid = MakeNoFly(no_fly)
+        polygon = SurveyPolygon(polygon, avoid, spacing)
 
     def length(d):
-        route = MakeRoute(
-            d, spacing, min_turning_radius, min_line_length=min_line_length, order_by="distance"
-        )
-        return round(route.Length(), 6)
+        try:
+            route = MakeRoute(
+                d,
+                spacing,
+                min_turning_radius,
+                min_line_length=min_line_length,
+                order_by="distance",
+                no_fly=avoid,
+            )
+        except ValueError:  # no route keeps out of the no-fly polygons
+            return math.inf
+        return round(Score(d, route), 6)
+
+    def Score(d, route):
+        if avoid is None:
+            return route.Length()
+        lines = [ln for c in d.cells for ln in CellSweepLines(c, d.theta_deg, spacing)]
+        total = float(sum(np.linalg.norm(ln[1] - ln[0]) for ln in lines))
+        return route.Length() + LOST_LINE_WEIGHT * max(total - route.Length("line"), 0.0)
 
     best = None
     for convex in kinds[cells]:
@@ -117,10 +150,12 @@ def MakeFieldPlan(
             min_turning_radius,
             start,
             min_line_length=min_line_length,
+            no_fly=avoid,
         )
-        if best is None or route.Length() < best.route.Length() - 1e-9:
-            best = FieldPlan(field, choice, route, chosen_by)
-    return best
+        score = Score(choice.decomposition, route)
+        if best is None or score < best[0] - 1e-9:
+            best = (score, FieldPlan(field, choice, route, chosen_by, avoid))
+    return best[1]
 
 
 def WithHomeLegs(route: Route, home) -> Route:
@@ -265,7 +300,7 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11, home=None)
     for c1 in np.linspace(lo, hi, grid_size):
         route = MakeRoute(
             d, LineSpacing(coverage, c1), coverage.min_turning_radius,
-            min_line_length=4.0 * coverage.trigger_radius,
+            min_line_length=4.0 * coverage.trigger_radius, no_fly=plan.no_fly,
         )  # fmt: skip
         flown = WithHomeLegs(route, home)
         for c2 in itertools.product(*table.parameter_grids):
