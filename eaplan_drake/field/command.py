@@ -193,9 +193,16 @@ def RunPlanCommand(args) -> int:
         cells=coverage.field_cells,
         min_line_length=4.0 * coverage.trigger_radius,
         start=given_home,
+        no_fly=field.holes if coverage.no_fly_holes else (),
     )
     ends, ground_source = _MissionEnds(args, scenario, field, plan.route, given_home)
     home = ends.Home(plan.route)
+    if plan.no_fly is not None:  # home legs around the no-fly polygons
+        import dataclasses as dc
+
+        from eaplan_drake.field.nofly import WithHomeTransits
+
+        plan = dc.replace(plan, route=WithHomeTransits(plan.route, home, plan.no_fly))
     energy = LowestPlanEnergy(plan, scenario, home)
     summary = Summary(plan, energy)
     summary["lowest_plan_risk"] = LowestPlanRisk(energy, scenario)

@@ -44,6 +44,7 @@ __all__ = [
     "NoFly",
     "SurveyPolygon",
     "VisibilityPath",
+    "WithHomeTransits",
 ]
 
 CLEARANCE = 10.0
@@ -410,3 +411,72 @@ def AvoidingLegs(
         legs += CellLegs(seq, r_min, i)
         position = np.asarray(legs[-1].end)
     return legs
+
+
+def _Around(a, b, heading_a, heading_b, radius: float, no_fly: NoFly):
+    """Transit legs from ``a`` [m] (along ``heading_a``) that bring the straight line to ``b``
+    clear of the zone: along the visibility path from ``a`` to ``b`` up to its last corner
+    (``heading_b`` None: reached heading for ``b``), or, ``heading_a`` None, from its first
+    corner (left heading away from ``a``) to ``b`` along ``heading_b``; None when none keeps
+    out."""
+    for k in (0.5, 1.0, 2.0):
+        path = VisibilityPath(a, b, no_fly, no_fly.clearance + k * radius)
+        if path is None or len(path) < 3:
+            continue
+        if heading_b is None:
+            legs = _Through(path[:-1], heading_a, path[-1] - path[-2], radius)
+        else:
+            legs = _Through(path[1:], path[1] - path[0], heading_b, radius)
+        if not Hits(legs, no_fly):
+            return legs
+    return None
+
+
+def _Return(legs, home, radius: float, no_fly: NoFly):
+    """``legs`` with their way home (module docstring of :func:`WithHomeTransits`), the last
+    line's end shortened by s = 0, ½, 1, 3/2, 2 r_min until it keeps out; None when none."""
+    last = legs[-1]
+    for s in (0.0, 0.5 * radius, radius, 1.5 * radius, 2.0 * radius):
+        out = list(legs)
+        if s > 0.0:
+            line = np.array([last.start, last.end])
+            if last.kind != "line" or _Shorten(line, 0.0, s, 1.0) is None:
+                return None
+            out[-1] = _LineLeg(_Shorten(line, 0.0, s, 1.0), last.cell)
+        end, heading = np.asarray(out[-1].end), np.subtract(out[-1].end, out[-1].start)
+        if np.linalg.norm(home - end) < 1e-6:
+            return out
+        turn = TransitLegs(end, heading, home, home - end, radius)
+        if not Hits(turn, no_fly):
+            return out
+        after = _Around(end, home, heading, None, radius, no_fly)
+        if after is not None:
+            return out + after
+    return None
+
+
+def WithHomeTransits(route, home, no_fly: NoFly):
+    """``route`` flown from and back to ``home`` [m] around the no-fly polygons. The way back is
+    the Dubins path of radius r_min from the route's end onto the straight line home; where it
+    would enter the zone, a transit along the visibility path (:func:`VisibilityPath`) is added
+    that leaves a straight leg home clear of it, and if none does, the last line is shortened
+    (:func:`_Return`). Where the straight leg from home to the route's start would enter the
+    zone, a transit from home is put before it. Raises
+    :class:`~eaplan_drake.field.airspace.AirspaceError` naming ``coverage.no_fly_holes`` when no
+    way keeps out."""
+    home = np.asarray(home, dtype=float)
+    legs = list(route.legs)
+    r = route.min_turning_radius
+    first = legs[0]
+    start = np.asarray(first.start)
+    if np.linalg.norm(start - home) > 0.0:
+        if Hits([Leg("home", tuple(home), tuple(start), 1.0)], no_fly):
+            heading = np.subtract(first.end, first.start)
+            before = _Around(home, start, None, heading, r, no_fly)
+            if before is None:
+                raise AirspaceError(f"{KEY}: no way from home to the route keeps out of them")
+            legs = before + legs
+    legs = _Return(legs, home, r, no_fly)
+    if legs is None:
+        raise AirspaceError(f"{KEY}: no way from the route back home keeps out of them")
+    return dc.replace(route, legs=tuple(legs))
