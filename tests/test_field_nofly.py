@@ -75,6 +75,8 @@ def test_the_plan_command_with_no_fly_holes_writes_a_route_outside_them(tmp_path
     check = summary["airspace"]["check"]
     assert check["in_no_fly"] == 0 and check["outside"] == 0
     assert summary["airspace"]["no_fly"] == 1
+    assert 0.5 < summary["no_fly"]["swath_coverage"] < 1.0  # the holes' shadows are not flown
+    assert "polygons kept 10 m clear (coverage.no_fly_holes)" in capsys.readouterr().out
     assert (tmp_path / "field" / "mission.plan").exists()
 
 

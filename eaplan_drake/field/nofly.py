@@ -43,6 +43,7 @@ __all__ = [
     "MakeNoFly",
     "NoFly",
     "SurveyPolygon",
+    "SwathCoverage",
     "VisibilityPath",
     "WithHomeTransits",
 ]
@@ -480,3 +481,18 @@ def WithHomeTransits(route, home, no_fly: NoFly):
     if legs is None:
         raise AirspaceError(f"{KEY}: no way from the route back home keeps out of them")
     return dc.replace(route, legs=tuple(legs))
+
+
+def SwathCoverage(route, field_polygon) -> float:
+    """The fraction [0, 1] of ``field_polygon``'s area that the swaths of ``route``'s lines
+    (each line buffered by x_d/2 on either side, flat ends) cover."""
+    shapely = Require("shapely")
+    half = 0.5 * route.spacing
+    swaths = shapely.union_all(
+        [
+            shapely.LineString([leg.start, leg.end]).buffer(half, cap_style="flat")
+            for leg in route.legs
+            if leg.kind == "line" and leg.length > 0.0
+        ]
+    )
+    return float(swaths.intersection(field_polygon).area / field_polygon.area)

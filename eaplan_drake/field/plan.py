@@ -381,6 +381,14 @@ def Summary(plan: FieldPlan, energy: dict | None = None) -> dict:
         "transit_length_m": route.Length("transit"),
         "path_length_m": route.Length(),
     }
+    if plan.no_fly is not None:
+        from eaplan_drake.field.nofly import SwathCoverage
+
+        out["no_fly"] = {
+            "polygons": len(plan.no_fly.polygons),
+            "clearance_m": plan.no_fly.clearance,
+            "swath_coverage": SwathCoverage(route, plan.field.Polygon()),
+        }
     if energy is not None:
         out["lowest_plan"] = energy
     return out
@@ -507,6 +515,13 @@ def FormatFieldPlan(summary: dict) -> str:
         f"transits        {s['transits']} between cells, {s['transit_length_m']:.0f} m",
         f"path length     {s['path_length_m']:.0f} m",
     ]
+    if "no_fly" in s:
+        n = s["no_fly"]
+        lines.append(
+            f"no-fly          {n['polygons']} polygons kept {n['clearance_m']:g} m clear "
+            f"(coverage.no_fly_holes); the lines' swaths cover {100 * n['swath_coverage']:.0f} % "
+            "of the field (turns need r_min beyond the lines)"
+        )
     lines += _MissionLines(s.get("mission"))
     lines += _AirspaceLines(s.get("airspace"))
     lines += _LowestPlanLines(s.get("lowest_plan"))
