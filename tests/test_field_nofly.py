@@ -150,3 +150,29 @@ def test_without_no_fly_polygons_the_plan_is_unchanged():
     b = MakeFieldPlan(field, 10.0, R_MIN, min_line_length=8.0, no_fly=())
     assert a.route == b.route and b.no_fly is None
     assert WithHomeLegs(a.route, HOME) == WithHomeLegs(b.route, HOME)
+
+
+def test_a_random_field_its_way_home_included_keeps_out_of_its_hole():
+    from eaplan_drake.field.nofly import WithHomeTransits
+    from eaplan_drake.field.random_fields import RandomField
+
+    field = RandomField(11, size=500.0, holes=1)  # its last line heads at the hole
+    plan = MakeFieldPlan(field, 25.1, R_MIN, no_fly=field.holes, min_line_length=8.0)
+    home = plan.route.legs[0].start
+    route = WithHomeLegs(WithHomeTransits(plan.route, home, plan.no_fly), home)
+    assert route.legs[-2].kind == "transit" and route.legs[-1].kind == "home"
+    points = shapely.points(RoutePoints(route))
+    assert not shapely.contains(shapely.Polygon(field.holes[0]), points).any()
+    assert float(np.min(shapely.distance(shapely.Polygon(field.holes[0]), points))) >= 9.99
+
+
+def test_the_turn_home_ends_heading_at_home():
+    from eaplan_drake.field.nofly import _TurnToward
+
+    (arc,) = _TurnToward((0.0, 0.0), (1.0, 0.0), (0.0, 200.0), 20.0)
+    assert arc.ccw and arc.radius == 20.0 and arc.center == (0.0, 20.0)
+    a = math.atan2(arc.end[1] - 20.0, arc.end[0]) + math.pi / 2  # heading at the arc's end
+    to_home = math.atan2(200.0 - arc.end[1], -arc.end[0])
+    assert abs(a - to_home) < math.radians(0.6)
+    assert _TurnToward((0.0, 0.0), (1.0, 0.0), (0.0, 20.0), 20.0) is None  # inside its circle
+    assert _TurnToward((0.0, 0.0), (1.0, 0.0), (50.0, 0.0), 20.0) == []

@@ -433,9 +433,47 @@ def _Around(a, b, heading_a, heading_b, radius: float, no_fly: NoFly):
     return None
 
 
+def _TurnToward(p, heading, target, radius: float):
+    """The arc of ``radius`` [m] from ``p`` [m] travelling along ``heading`` that turns towards
+    ``target`` until it heads straight at it (to 0.5°): a list of one transit leg (none when it
+    already does), or None when ``target`` lies within the turn's circle."""
+    p, target = np.asarray(p, dtype=float), np.asarray(target, dtype=float)
+    u = _Unit(heading)
+    d = target - p
+    cross = u[0] * d[1] - u[1] * d[0]
+    if abs(cross) <= 1e-9 * np.linalg.norm(d) and u @ d > 0.0:
+        return []
+    ccw = cross > 0.0
+    sign = 1.0 if ccw else -1.0
+    center = p + sign * radius * np.array([-u[1], u[0]])
+    if np.linalg.norm(target - center) <= radius:
+        return None
+    r0 = p - center
+    for a in np.radians(np.arange(0.5, 360.0, 0.5)):
+        c, s_ = math.cos(sign * a), math.sin(sign * a)
+        q = center + np.array([c * r0[0] - s_ * r0[1], s_ * r0[0] + c * r0[1]])
+        h = sign * np.array([-(q - center)[1], (q - center)[0]])
+        e = target - q
+        if h[0] * e[1] - h[1] * e[0] <= 0.0 if ccw else h[0] * e[1] - h[1] * e[0] >= 0.0:
+            start, end = (float(p[0]), float(p[1])), (float(q[0]), float(q[1]))
+            c_ = (float(center[0]), float(center[1]))
+            return [Leg("transit", start, end, radius * a, c_, radius, bool(ccw), float(a))]
+    return None
+
+
 def _Return(legs, home, radius: float, no_fly: NoFly):
-    """``legs`` with their way home (module docstring of :func:`WithHomeTransits`), the last
-    line's end shortened by s = 0, ½, 1, 3/2, 2 r_min until it keeps out; None when none."""
+    """``legs`` with their way home (:func:`WithHomeTransits`): the last line's end shortened
+    by s = 0, ½, 1, 3/2, 2 r_min, and then the last line left out, until it keeps out; None
+    when no line is left."""
+    legs = list(legs)
+    while legs:
+        out = _ReturnFrom(legs, home, radius, no_fly)
+        if out is not None or not _DropLastLine(legs):
+            return out
+    return None
+
+
+def _ReturnFrom(legs, home, radius: float, no_fly: NoFly):
     last = legs[-1]
     for s in (0.0, 0.5 * radius, radius, 1.5 * radius, 2.0 * radius):
         out = list(legs)
@@ -447,24 +485,26 @@ def _Return(legs, home, radius: float, no_fly: NoFly):
         end, heading = np.asarray(out[-1].end), np.subtract(out[-1].end, out[-1].start)
         if np.linalg.norm(home - end) < 1e-6:
             return out
-        turn = TransitLegs(end, heading, home, home - end, radius)
-        if not Hits(turn, no_fly):
-            return out
-        after = _Around(end, home, heading, None, radius, no_fly)
-        if after is not None:
-            return out + after
+        arc = _TurnToward(end, heading, home, radius)
+        if arc is not None:
+            after = np.asarray(arc[-1].end) if arc else end
+            if not Hits([*arc, Leg("home", tuple(after), tuple(home), 1.0)], no_fly):
+                return out + arc
+        around = _Around(end, home, heading, None, radius, no_fly)
+        if around is not None:
+            return out + around
     return None
 
 
 def WithHomeTransits(route, home, no_fly: NoFly):
     """``route`` flown from and back to ``home`` [m] around the no-fly polygons. The way back is
-    the Dubins path of radius r_min from the route's end onto the straight line home; where it
-    would enter the zone, a transit along the visibility path (:func:`VisibilityPath`) is added
-    that leaves a straight leg home clear of it, and if none does, the last line is shortened
-    (:func:`_Return`). Where the straight leg from home to the route's start would enter the
-    zone, a transit from home is put before it. Raises
-    :class:`~eaplan_drake.field.airspace.AirspaceError` naming ``coverage.no_fly_holes`` when no
-    way keeps out."""
+    a turn of radius r_min from the route's end until it heads at home, then the straight leg
+    home (:func:`~eaplan_drake.field.plan.WithHomeLegs`), when both keep out; else a transit
+    along the visibility path (:func:`VisibilityPath`) that leaves a straight leg home clear of
+    it; if none does, the last line is shortened or left out (:func:`_Return`). Where the
+    straight leg from home to the route's start would enter the zone, a transit from home is
+    put before it. Raises :class:`~eaplan_drake.field.airspace.AirspaceError` naming
+    ``coverage.no_fly_holes`` when no way keeps out."""
     home = np.asarray(home, dtype=float)
     legs = list(route.legs)
     r = route.min_turning_radius
