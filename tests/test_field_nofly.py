@@ -176,3 +176,15 @@ def test_the_turn_home_ends_heading_at_home():
     assert abs(a - to_home) < math.radians(0.6)
     assert _TurnToward((0.0, 0.0), (1.0, 0.0), (0.0, 20.0), 20.0) is None  # inside its circle
     assert _TurnToward((0.0, 0.0), (1.0, 0.0), (50.0, 0.0), 20.0) == []
+
+
+def test_a_landing_approach_across_the_hole_is_one_line_naming_the_key(planned):
+    from eaplan_drake.field.command import _Airspace
+    from eaplan_drake.field.missions import MissionEnds
+
+    _, plan = planned
+    scenario = Scenario()
+    scenario.coverage.no_fly_holes = True
+    across = MissionEnds(HOME, LANDING.ground_alt, "land", (1.0, 1.0))  # fix beyond the hole
+    with pytest.raises(AirspaceError, match=r"^coverage\.no_fly_holes: the landing's approach"):
+        _Airspace(plan, scenario, across)

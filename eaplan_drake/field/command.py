@@ -116,6 +116,18 @@ def _Airspace(plan, scenario, ends):
         no_fly=field.holes if coverage.no_fly_holes else (),
     )
     fence = airspace.Fence()
+    if plan.no_fly is not None and extra:  # the landing's approach, flown straight
+        from eaplan_drake.field.nofly import Hits
+        from eaplan_drake.field.route import Leg
+
+        end, fix, home = (
+            tuple(float(v) for v in p) for p in (plan.route.legs[-1].end, *extra, ends.home)
+        )
+        if Hits([Leg("home", end, fix, 1.0), Leg("home", fix, home, 1.0)], plan.no_fly):
+            raise AirspaceError(
+                "coverage.no_fly_holes: the landing's approach (from the route's end to its fix "
+                "and home) crosses a no-fly polygon: land elsewhere (--home) or end with rtl"
+            )
 
     def Exported(ring):
         lonlat = np.round(field.frame.ToLonLat(ring), 8)
