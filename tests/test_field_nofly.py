@@ -24,13 +24,13 @@ from eaplan_drake.field.decompose import Decompose  # noqa: E402
 from eaplan_drake.field.missions import Fence  # noqa: E402
 from eaplan_drake.field.nofly import (  # noqa: E402
     CLEARANCE,
+    MakeAvoidingRoute,
     MakeNoFly,
     SurveyPolygon,
     VisibilityPath,
 )
 from eaplan_drake.field.plan import MakeFieldPlan, WithHomeLegs  # noqa: E402
 from eaplan_drake.field.readers import FieldGeoJsonText  # noqa: E402
-from eaplan_drake.field.route import MakeRoute  # noqa: E402
 from eaplan_drake.params import Scenario  # noqa: E402
 
 R_MIN = 62.45
@@ -104,7 +104,7 @@ def test_a_square_field_with_a_square_hole_has_the_lines_of_its_four_cells():
     assert survey.area == pytest.approx(400**2 - 130**2)
     d = Decompose(survey, 0.0)
     assert len(d.cells) == 4
-    route = MakeRoute(d, 10.0, 20.0, no_fly=no_fly)
+    route = MakeAvoidingRoute(d, 10.0, 20.0, no_fly)
     assert route.Count("line") == 14 + 14 + 13 + 13
     lines = [leg for leg in route.legs if leg.kind == "line"]
     beside = [leg for leg in lines if 135 < leg.start[1] < 265]
@@ -140,7 +140,7 @@ def test_a_start_the_route_cannot_leave_is_one_line_naming_the_key():
     no_fly = MakeNoFly([hole])
     d = Decompose(SurveyPolygon(field, no_fly, 10.0), 0.0)
     with pytest.raises(AirspaceError, match=r"^coverage\.no_fly_holes: ") as e:
-        MakeRoute(d, 10.0, 20.0, start=(200.0, 200.0), no_fly=no_fly)
+        MakeAvoidingRoute(d, 10.0, 20.0, no_fly, start=(200.0, 200.0))
     assert "\n" not in str(e.value)
 
 

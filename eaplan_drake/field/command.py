@@ -146,6 +146,18 @@ def _Airspace(plan, scenario, ends):
     return airspace, check
 
 
+def _AroundToHome(plan, home):
+    """``plan`` with its way from and back to ``home`` [m] around its no-fly polygons
+    (:func:`~eaplan_drake.field.nofly.WithHomeTransits`); as it is without them."""
+    if plan.no_fly is None:
+        return plan
+    import dataclasses as dc
+
+    from eaplan_drake.field.nofly import WithHomeTransits
+
+    return dc.replace(plan, route=WithHomeTransits(plan.route, home, plan.no_fly))
+
+
 def _NotFitLine(summary: dict, scenario) -> str:
     """The one line of a plan whose lowest plan ends below the reserve."""
     e = summary["lowest_plan"]
@@ -209,12 +221,7 @@ def RunPlanCommand(args) -> int:
     )
     ends, ground_source = _MissionEnds(args, scenario, field, plan.route, given_home)
     home = ends.Home(plan.route)
-    if plan.no_fly is not None:  # home legs around the no-fly polygons
-        import dataclasses as dc
-
-        from eaplan_drake.field.nofly import WithHomeTransits
-
-        plan = dc.replace(plan, route=WithHomeTransits(plan.route, home, plan.no_fly))
+    plan = _AroundToHome(plan, home)
     energy = LowestPlanEnergy(plan, scenario, home)
     summary = Summary(plan, energy)
     summary["lowest_plan_risk"] = LowestPlanRisk(energy, scenario)

@@ -36,12 +36,18 @@ from eaplan_drake.field.route import Leg, TransitLegs, TurnLegs, _Ordered
 
 __all__ = [
     "CLEARANCE",
+    "LOST_LINE_WEIGHT",
     "AvoidingLegs",
     "AvoidingTransit",
     "ClearCellLines",
     "Hits",
+    "LostLineLength",
+    "MakeAvoidingRoute",
     "MakeNoFly",
     "NoFly",
+    "NoFlyLines",
+    "NoFlySummary",
+    "PlanRoute",
     "SurveyPolygon",
     "SwathCoverage",
     "VisibilityPath",
@@ -53,6 +59,10 @@ CLEARANCE = 10.0
 :data:`~eaplan_drake.field.airspace.TRACKING_ALLOWANCE`)."""
 
 KEY = "coverage.no_fly_holes"
+
+LOST_LINE_WEIGHT = 10.0
+"""How many metres flown a metre of survey line left out near a no-fly polygon counts as when
+the sweep direction is chosen [-] (:func:`~eaplan_drake.field.plan.MakeFieldPlan`)."""
 
 
 @dc.dataclass(frozen=True)
@@ -536,3 +546,82 @@ def SwathCoverage(route, field_polygon) -> float:
         ]
     )
     return float(swaths.intersection(field_polygon).area / field_polygon.area)
+
+
+def MakeAvoidingRoute(
+    decomposition,
+    spacing: float,
+    min_turning_radius: float,
+    no_fly: NoFly,
+    start=None,
+    *,
+    min_line_length: float = 0.0,
+    order_by: str = "transit",
+):
+    """:func:`~eaplan_drake.field.route.MakeRoute` whose lines, turns and transits keep out of
+    ``no_fly``'s polygons (:func:`AvoidingLegs`); the cells of ``decomposition`` should be those
+    of :func:`SurveyPolygon`."""
+    from eaplan_drake.field.route import Route, TurnJump, _CellLines
+
+    if order_by not in ("transit", "distance"):
+        raise ValueError(f"order_by: must be transit or distance, got {order_by!r}")
+    if not (math.isfinite(min_turning_radius) and min_turning_radius > 0.0):
+        raise ValueError(f"min turning radius: must be > 0 [m], got {min_turning_radius!r}")
+    legs = AvoidingLegs(
+        _CellLines(decomposition, spacing, min_line_length),
+        TurnJump(spacing, min_turning_radius),
+        min_turning_radius,
+        no_fly,
+        start,
+        order_by=order_by,
+        min_length=min_line_length,
+    )
+    theta = decomposition.theta_deg
+    return Route(tuple(legs), theta, float(spacing), float(min_turning_radius))
+
+
+def LostLineLength(decomposition, route, spacing: float) -> float:
+    """How much survey line [m] ``route`` leaves out of the lines of ``decomposition``'s cells
+    at ``spacing`` [m] (:func:`~eaplan_drake.field.route.CellSweepLines`)."""
+    from eaplan_drake.field.route import CellSweepLines
+
+    theta = decomposition.theta_deg
+    lines = [ln for c in decomposition.cells for ln in CellSweepLines(c, theta, spacing)]
+    total = float(sum(np.linalg.norm(ln[1] - ln[0]) for ln in lines))
+    return max(total - route.Length("line"), 0.0)
+
+
+def NoFlySummary(no_fly: NoFly, route, field_polygon) -> dict:
+    """The plan summary's ``no_fly``: how many polygons, the clearance [m], and the swath
+    coverage of ``route`` over ``field_polygon`` (:func:`SwathCoverage`)."""
+    return {
+        "polygons": len(no_fly.polygons),
+        "clearance_m": no_fly.clearance,
+        "swath_coverage": SwathCoverage(route, field_polygon),
+    }
+
+
+def NoFlyLines(summary: dict | None) -> list[str]:
+    """The ``plan`` command's line of a :func:`NoFlySummary` (none for None)."""
+    if summary is None:
+        return []
+    n = summary
+    return [
+        f"no-fly          {n['polygons']} polygons kept {n['clearance_m']:g} m clear "
+        f"(coverage.no_fly_holes); the lines' swaths cover {100 * n['swath_coverage']:.0f} % "
+        "of the field (turns need r_min beyond the lines)"
+    ]
+
+
+def PlanRoute(d, spacing, r_min, start, min_line_length, no_fly, order_by="transit"):
+    """:func:`~eaplan_drake.field.route.MakeRoute` over the cells of ``d``, or with ``no_fly``
+    (a :class:`NoFly`) :func:`MakeAvoidingRoute`."""
+    from eaplan_drake.field.route import MakeRoute
+
+    if no_fly is None:
+        return MakeRoute(
+            d, spacing, r_min, start, min_line_length=min_line_length, order_by=order_by
+        )
+    return MakeAvoidingRoute(
+        d, spacing, r_min, no_fly, start, min_line_length=min_line_length, order_by=order_by
+    )

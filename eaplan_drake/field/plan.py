@@ -23,9 +23,10 @@ import math
 
 import numpy as np
 
+from eaplan_drake.field import nofly
 from eaplan_drake.field.decompose import ChooseSweepDirection, Decompose, SweepChoice, SweepLines
 from eaplan_drake.field.readers import Field
-from eaplan_drake.field.route import CellSweepLines, Leg, MakeRoute, Route, RouteEnergy
+from eaplan_drake.field.route import Leg, Route, RouteEnergy
 
 __all__ = [
     "AirspaceSummary",
@@ -34,7 +35,6 @@ __all__ = [
     "FieldPlan",
     "FormatFieldPlan",
     "WithHomeLegs",
-    "LOST_LINE_WEIGHT",
     "LineSpacing",
     "LowestPlanEnergy",
     "LowestPlanRisk",
@@ -58,11 +58,6 @@ class FieldPlan:
     """How θ was chosen (one line)."""
     no_fly: object = None
     """The :class:`~eaplan_drake.field.nofly.NoFly` the route keeps out of, or None."""
-
-
-LOST_LINE_WEIGHT = 10.0
-"""How many metres flown a metre of survey line left out near a no-fly polygon counts as when
-the sweep direction is chosen [-] (:func:`MakeFieldPlan`)."""
 
 
 def LineSpacing(coverage, c1: float) -> float:
@@ -98,29 +93,22 @@ def MakeFieldPlan(
     cell and end nearest to it (the sweep direction is still the shortest route's). With
     ``no_fly`` polygons [m] the route keeps out of them (:mod:`eaplan_drake.field.nofly`): the
     cells are the field's minus them, and θ is the direction of the shortest route counting each
-    metre of survey line the polygons cost as :data:`LOST_LINE_WEIGHT` m flown."""
+    metre of survey line the polygons cost as
+    :data:`~eaplan_drake.field.nofly.LOST_LINE_WEIGHT` m flown."""
     kinds = {"convex": (True,), "monotone": (False,), "best": (True, False)}
     if cells not in kinds:
         raise ValueError(f"cells: must be one of {', '.join(kinds)}, got {cells!r}")
     if theta_deg is not None and not math.isfinite(theta_deg):
         raise ValueError(f"--sweep-deg: must be a finite angle [deg], got {theta_deg!r}")
-    polygon = field.Polygon()
-    avoid = None
+    polygon, avoid = field.Polygon(), None
     if len(no_fly):
-        from eaplan_drake.field.nofly import MakeNoFly, SurveyPolygon
-
-        avoid = MakeNoFly(no_fly)
-        polygon = SurveyPolygon(polygon, avoid, spacing)
+        avoid = nofly.MakeNoFly(no_fly)
+        polygon = nofly.SurveyPolygon(polygon, avoid, spacing)
 
     def length(d):
         try:
-            route = MakeRoute(
-                d,
-                spacing,
-                min_turning_radius,
-                min_line_length=min_line_length,
-                order_by="distance",
-                no_fly=avoid,
+            route = nofly.PlanRoute(
+                d, spacing, min_turning_radius, None, min_line_length, avoid, "distance"
             )
         except ValueError:  # no route keeps out of the no-fly polygons
             return math.inf
@@ -129,9 +117,7 @@ def MakeFieldPlan(
     def Score(d, route):
         if avoid is None:
             return route.Length()
-        lines = [ln for c in d.cells for ln in CellSweepLines(c, d.theta_deg, spacing)]
-        total = float(sum(np.linalg.norm(ln[1] - ln[0]) for ln in lines))
-        return route.Length() + LOST_LINE_WEIGHT * max(total - route.Length("line"), 0.0)
+        return route.Length() + nofly.LOST_LINE_WEIGHT * nofly.LostLineLength(d, route, spacing)
 
     best = None
     for convex in kinds[cells]:
@@ -144,15 +130,9 @@ def MakeFieldPlan(
             total = float(sum(np.linalg.norm(ln[1] - ln[0]) for ln in lines))
             choice = SweepChoice(d, len(lines), total, 1)
             chosen_by = "given (--sweep-deg)"
-        route = MakeRoute(
-            choice.decomposition,
-            spacing,
-            min_turning_radius,
-            start,
-            min_line_length=min_line_length,
-            no_fly=avoid,
-        )
-        score = Score(choice.decomposition, route)
+        d = choice.decomposition
+        route = nofly.PlanRoute(d, spacing, min_turning_radius, start, min_line_length, avoid)
+        score = Score(d, route)
         if best is None or score < best[0] - 1e-9:
             best = (score, FieldPlan(field, choice, route, chosen_by, avoid))
     return best[1]
@@ -298,10 +278,13 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11, home=None)
     best = None
     tried = 0
     for c1 in np.linspace(lo, hi, grid_size):
-        route = MakeRoute(
-            d, LineSpacing(coverage, c1), coverage.min_turning_radius,
-            min_line_length=4.0 * coverage.trigger_radius, no_fly=plan.no_fly,
-        )  # fmt: skip
+        try:
+            spacing, r_min = LineSpacing(coverage, c1), coverage.min_turning_radius
+            route = nofly.PlanRoute(
+                d, spacing, r_min, None, 4.0 * coverage.trigger_radius, plan.no_fly
+            )
+        except ValueError:  # no route at this spacing keeps out of the no-fly polygons
+            continue
         flown = WithHomeLegs(route, home)
         for c2 in itertools.product(*table.parameter_grids):
             tried += 1
@@ -382,13 +365,7 @@ def Summary(plan: FieldPlan, energy: dict | None = None) -> dict:
         "path_length_m": route.Length(),
     }
     if plan.no_fly is not None:
-        from eaplan_drake.field.nofly import SwathCoverage
-
-        out["no_fly"] = {
-            "polygons": len(plan.no_fly.polygons),
-            "clearance_m": plan.no_fly.clearance,
-            "swath_coverage": SwathCoverage(route, plan.field.Polygon()),
-        }
+        out["no_fly"] = nofly.NoFlySummary(plan.no_fly, route, plan.field.Polygon())
     if energy is not None:
         out["lowest_plan"] = energy
     return out
@@ -515,13 +492,7 @@ def FormatFieldPlan(summary: dict) -> str:
         f"transits        {s['transits']} between cells, {s['transit_length_m']:.0f} m",
         f"path length     {s['path_length_m']:.0f} m",
     ]
-    if "no_fly" in s:
-        n = s["no_fly"]
-        lines.append(
-            f"no-fly          {n['polygons']} polygons kept {n['clearance_m']:g} m clear "
-            f"(coverage.no_fly_holes); the lines' swaths cover {100 * n['swath_coverage']:.0f} % "
-            "of the field (turns need r_min beyond the lines)"
-        )
+    lines += nofly.NoFlyLines(s.get("no_fly"))
     lines += _MissionLines(s.get("mission"))
     lines += _AirspaceLines(s.get("airspace"))
     lines += _LowestPlanLines(s.get("lowest_plan"))

@@ -364,37 +364,18 @@ def MakeRoute(
     *,
     min_line_length: float = 0.0,
     order_by: str = "transit",
-    no_fly=None,
 ) -> Route:
     """The route over the cells of ``decomposition`` at line spacing x_d = ``spacing`` [m] with
     turns of at least ``min_turning_radius`` r_min [m], from ``start`` [m] (default: the first
     cell's first line); lines shorter than ``min_line_length`` [m] are left out
     (:func:`CellSweepLines`). The next cell and its end are those of the shortest transit
-    (``order_by="transit"``) or, quicker to choose, of the nearest start (``"distance"``).
-    With ``no_fly`` (a :class:`~eaplan_drake.field.nofly.NoFly`) the lines, turns and transits
-    keep out of its polygons (:func:`~eaplan_drake.field.nofly.AvoidingLegs`; the cells should be
-    those of :func:`~eaplan_drake.field.nofly.SurveyPolygon`)."""
+    (``order_by="transit"``) or, quicker to choose, of the nearest start (``"distance"``)."""
     if order_by not in ("transit", "distance"):
         raise ValueError(f"order_by: must be transit or distance, got {order_by!r}")
     if not (math.isfinite(min_turning_radius) and min_turning_radius > 0.0):
         raise ValueError(f"min turning radius: must be > 0 [m], got {min_turning_radius!r}")
     jump = TurnJump(spacing, min_turning_radius)
     cell_lines = _CellLines(decomposition, spacing, min_line_length)
-    if no_fly is not None:
-        from eaplan_drake.field.nofly import AvoidingLegs
-
-        legs = AvoidingLegs(
-            cell_lines,
-            jump,
-            min_turning_radius,
-            no_fly,
-            start,
-            order_by=order_by,
-            min_length=min_line_length,
-        )
-        return Route(
-            tuple(legs), decomposition.theta_deg, float(spacing), float(min_turning_radius)
-        )
     todo = [i for i, lines in enumerate(cell_lines) if lines]
     legs: list[Leg] = []
     position = None if start is None else np.asarray(start, float)
