@@ -10,16 +10,19 @@ by straight chords (:func:`Hits`).
 (:func:`SurveyPolygon`; a line runs over its swath band, up to x_d/2 beyond its cell). A turn
 reaches at least r_min beyond the end of its lines (a fixed wing cannot reverse in less), so a
 line that runs towards a polygon ends where its turn fits: in a cell's Zamboni order, both line
-ends of a turn that enters the zone are shortened step by step until it keeps out, and a line
-left too short is dropped and the order made again (:func:`ClearCellLines`). The strip between
-the shortened lines and the polygon, about r_min deep, is not surveyed.
+ends of a turn that enters the zone are shortened by the least (to 1 m, by bisection) that keeps
+it out, and a line that cannot be is dropped and the order made again (:func:`ClearCellLines`).
+The strip between the shortened lines and the polygon, about r_min deep, is not surveyed
+(:func:`SwathCoverage` says how much of the field the lines still cover).
 
 *Transits.* Between cells, the Dubins path of radius r_min when it keeps out; else the shortest
-path on the visibility graph of the polygons buffered by c + k r_min (k = ½, 1, 2) from a point
-r_min ahead of the last line's end to one r_min before the next line's start, flown through its
-corners with Dubins turns (:func:`AvoidingTransit`). A cell whose entry or exit has no such
-transit has its first line's start and its last line's end shortened too (:func:`AvoidingLegs`).
-When no cell can be reached the route is refused in one line naming ``coverage.no_fly_holes``.
+path on the visibility graph of the polygons buffered by c + k r_min (k = ½, 1, 2) from the last
+line's end to the next line's start, flown through its corners with Dubins turns, the heading at
+a corner bisecting its two segments (:func:`AvoidingTransit`). Where no transit keeps out, the
+last line's end and the next line's start are shortened by ½, 1, 3/2 or 2 r_min, and if that
+fails the last line is dropped (:func:`AvoidingLegs`). The way from home and back
+(:func:`WithHomeTransits`) is built the same way. When no cell can be reached the route is
+refused in one line naming ``coverage.no_fly_holes``.
 
 Lengths in m.
 """
