@@ -188,3 +188,19 @@ def test_a_landing_approach_across_the_hole_is_one_line_naming_the_key(planned):
     across = MissionEnds(HOME, LANDING.ground_alt, "land", (1.0, 1.0))  # fix beyond the hole
     with pytest.raises(AirspaceError, match=r"^coverage\.no_fly_holes: the landing's approach"):
         _Airspace(plan, scenario, across)
+
+
+def test_a_hole_that_cuts_the_field_in_two_gives_cells_on_both_sides():
+    field = shapely.Polygon(
+        [(0, 0), (400, 0), (400, 100), (0, 100)], [[(180, 10), (180, 90), (220, 90), (220, 10)]]
+    )
+    no_fly = MakeNoFly([field.interiors[0].coords[:-1]])
+    survey = SurveyPolygon(field, no_fly, 10.0)  # the hole + 15 m reaches past both edges
+    assert survey.geom_type == "MultiPolygon" and len(survey.geoms) == 2
+    d = Decompose(survey, 90.0)
+    assert len(d.cells) == 2
+    route = MakeAvoidingRoute(d, 10.0, 20.0, no_fly)
+    assert route.Count("line") == 2 * 17  # 165 m each side at 10 m: ⌈16.5⌉ lines
+    assert route.transits == 1
+    hole = shapely.Polygon(field.interiors[0])
+    assert hole.distance(shapely.LineString(RoutePoints(route))) >= CLEARANCE - 0.01
