@@ -25,7 +25,9 @@ that works: a smaller ``coverage.airspace_margin`` is refused in one line naming
 The airspace (:func:`MakeAirspace`) is the field's outer boundary (its holes are not surveyed,
 and may be overflown) buffered by M, with corridors of half-width M along the legs from home to
 the route and back; the missions' inclusion geofence is that polygon, and the exclusion fences
-are only the no-fly polygons. :func:`PointsOutside` counts the points of a route that leave it.
+are only the no-fly polygons (a route that keeps out of them:
+:mod:`eaplan_drake.field.nofly`). :func:`PointsOutside` counts the points of a route that leave
+it.
 
 Lengths in m, speeds in m/s, angles in degrees.
 """
@@ -201,8 +203,9 @@ def MakeAirspace(
     for i, zone in enumerate(zones):
         if zone.intersects(shapely.LineString(RoutePoints(route))):
             raise AirspaceError(
-                f"no-fly polygon {i}: the route crosses it (the planner does not route around "
-                "no-fly polygons: leave it out or split the field)"
+                f"no-fly polygon {i}: the route crosses it (coverage.no_fly_holes: the plan "
+                "command routes around the holes, a simulated flight does not: leave it out or "
+                "split the field)"
             )
     return Airspace(polygon, zones, float(margin), required)
 

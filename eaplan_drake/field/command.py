@@ -116,6 +116,18 @@ def _Airspace(plan, scenario, ends):
         no_fly=field.holes if coverage.no_fly_holes else (),
     )
     fence = airspace.Fence()
+    if plan.no_fly is not None and extra:  # the landing's approach, flown straight
+        from eaplan_drake.field.nofly import Hits
+        from eaplan_drake.field.route import Leg
+
+        end, fix, home = (
+            tuple(float(v) for v in p) for p in (plan.route.legs[-1].end, *extra, ends.home)
+        )
+        if Hits([Leg("home", end, fix, 1.0), Leg("home", fix, home, 1.0)], plan.no_fly):
+            raise AirspaceError(
+                "coverage.no_fly_holes: the landing's approach (from the route's end to its fix "
+                "and home) crosses a no-fly polygon: land elsewhere (--home) or end with rtl"
+            )
 
     def Exported(ring):
         lonlat = np.round(field.frame.ToLonLat(ring), 8)
@@ -132,6 +144,18 @@ def _Airspace(plan, scenario, ends):
             f"{check['in_no_fly']} in no-fly polygons): not written"
         )
     return airspace, check
+
+
+def _AroundToHome(plan, home):
+    """``plan`` with its way from and back to ``home`` [m] around its no-fly polygons
+    (:func:`~eaplan_drake.field.nofly.WithHomeTransits`); as it is without them."""
+    if plan.no_fly is None:
+        return plan
+    import dataclasses as dc
+
+    from eaplan_drake.field.nofly import WithHomeTransits
+
+    return dc.replace(plan, route=WithHomeTransits(plan.route, home, plan.no_fly))
 
 
 def _NotFitLine(summary: dict, scenario) -> str:
@@ -193,9 +217,11 @@ def RunPlanCommand(args) -> int:
         cells=coverage.field_cells,
         min_line_length=4.0 * coverage.trigger_radius,
         start=given_home,
+        no_fly=field.holes if coverage.no_fly_holes else (),
     )
     ends, ground_source = _MissionEnds(args, scenario, field, plan.route, given_home)
     home = ends.Home(plan.route)
+    plan = _AroundToHome(plan, home)
     energy = LowestPlanEnergy(plan, scenario, home)
     summary = Summary(plan, energy)
     summary["lowest_plan_risk"] = LowestPlanRisk(energy, scenario)

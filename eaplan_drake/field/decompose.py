@@ -146,7 +146,10 @@ class _Chain:
 
 def Decompose(field_polygon, theta_deg: float, *, convex: bool = True) -> Decomposition:
     """The cells of ``field_polygon`` (a ``shapely.Polygon`` [m], holes allowed, valid) for lines
-    along θ = ``theta_deg`` [deg] (see the module docstring)."""
+    along θ = ``theta_deg`` [deg] (see the module docstring); a ``shapely.MultiPolygon`` gives
+    the cells of all its parts."""
+    if getattr(field_polygon, "geom_type", "") == "MultiPolygon":
+        return _DecomposeParts(field_polygon.geoms, theta_deg, convex)
     theta = float(theta_deg) % 180.0
     R = _Rotation(theta)
     rings = [np.asarray(field_polygon.exterior.coords)[:-1] @ R.T]
@@ -200,6 +203,18 @@ def Decompose(field_polygon, theta_deg: float, *, convex: bool = True) -> Decomp
     return Decomposition(
         theta_deg=theta, cells=tuple(cells), trapezoids=trapezoids, convex=bool(convex)
     )
+
+
+def _DecomposeParts(parts, theta_deg: float, convex: bool) -> Decomposition:
+    """The cells of several polygons, together, in the order of the sweep."""
+    ds = [Decompose(p, theta_deg, convex=convex) for p in parts]
+    R = _Rotation(theta_deg)
+    cells = sorted(
+        (c for d in ds for c in d.cells),
+        key=lambda c: (c.bottom, float(np.min((np.asarray(c.vertices) @ R.T)[:, 0]))),
+    )
+    theta = float(theta_deg) % 180.0
+    return Decomposition(theta, tuple(cells), sum(d.trapezoids for d in ds), bool(convex))
 
 
 def SweepLines(cell: Cell, theta_deg: float, spacing: float) -> list[np.ndarray]:
@@ -260,8 +275,9 @@ def ChooseSweepDirection(
     and the multiples of ``step_deg`` [deg] in [0, 180). ``cost(decomposition)``, when given,
     replaces the number of lines (e.g. the length of the route flown over the cells)."""
     Require("shapely")
-    rings = [np.asarray(field_polygon.exterior.coords)]
-    rings += [np.asarray(h.coords) for h in field_polygon.interiors]
+    parts = getattr(field_polygon, "geoms", [field_polygon])
+    rings = [np.asarray(p.exterior.coords) for p in parts]
+    rings += [np.asarray(h.coords) for p in parts for h in p.interiors]
     angles = set()
     for ring in rings:
         d = np.diff(ring, axis=0)

@@ -23,9 +23,10 @@ import math
 
 import numpy as np
 
+from eaplan_drake.field import nofly
 from eaplan_drake.field.decompose import ChooseSweepDirection, Decompose, SweepChoice, SweepLines
 from eaplan_drake.field.readers import Field
-from eaplan_drake.field.route import Leg, MakeRoute, Route, RouteEnergy
+from eaplan_drake.field.route import Leg, Route, RouteEnergy
 
 __all__ = [
     "AirspaceSummary",
@@ -55,6 +56,8 @@ class FieldPlan:
     route: Route
     chosen_by: str
     """How θ was chosen (one line)."""
+    no_fly: object = None
+    """The :class:`~eaplan_drake.field.nofly.NoFly` the route keeps out of, or None."""
 
 
 def LineSpacing(coverage, c1: float) -> float:
@@ -77,6 +80,7 @@ def MakeFieldPlan(
     cells: str = "best",
     min_line_length: float = 0.0,
     start=None,
+    no_fly=(),
 ) -> FieldPlan:
     """The plan over ``field`` at line spacing x_d = ``spacing`` and turns of at least r_min =
     ``min_turning_radius`` [m]; θ = ``theta_deg`` [deg from east] or, when None, the direction
@@ -86,19 +90,34 @@ def MakeFieldPlan(
     :func:`~eaplan_drake.field.route.MakeRoute`); lines shorter than
     ``min_line_length`` [m] are left out (:func:`~eaplan_drake.field.route.CellSweepLines`: 4 ε
     for a plan the sequencer flies). With ``start`` [m] (home) the route enters the field at the
-    cell and end nearest to it (the sweep direction is still the shortest route's)."""
+    cell and end nearest to it (the sweep direction is still the shortest route's). With
+    ``no_fly`` polygons [m] the route keeps out of them (:mod:`eaplan_drake.field.nofly`): the
+    cells are the field's minus them, and θ is the direction of the shortest route counting each
+    metre of survey line the polygons cost as
+    :data:`~eaplan_drake.field.nofly.LOST_LINE_WEIGHT` m flown."""
     kinds = {"convex": (True,), "monotone": (False,), "best": (True, False)}
     if cells not in kinds:
         raise ValueError(f"cells: must be one of {', '.join(kinds)}, got {cells!r}")
     if theta_deg is not None and not math.isfinite(theta_deg):
         raise ValueError(f"--sweep-deg: must be a finite angle [deg], got {theta_deg!r}")
-    polygon = field.Polygon()
+    polygon, avoid = field.Polygon(), None
+    if len(no_fly):
+        avoid = nofly.MakeNoFly(no_fly)
+        polygon = nofly.SurveyPolygon(polygon, avoid, spacing)
 
     def length(d):
-        route = MakeRoute(
-            d, spacing, min_turning_radius, min_line_length=min_line_length, order_by="distance"
-        )
-        return round(route.Length(), 6)
+        try:
+            route = nofly.PlanRoute(
+                d, spacing, min_turning_radius, None, min_line_length, avoid, "distance"
+            )
+        except ValueError:  # no route keeps out of the no-fly polygons
+            return math.inf
+        return round(Score(d, route), 6)
+
+    def Score(d, route):
+        if avoid is None:
+            return route.Length()
+        return route.Length() + nofly.LOST_LINE_WEIGHT * nofly.LostLineLength(d, route, spacing)
 
     best = None
     for convex in kinds[cells]:
@@ -111,16 +130,12 @@ def MakeFieldPlan(
             total = float(sum(np.linalg.norm(ln[1] - ln[0]) for ln in lines))
             choice = SweepChoice(d, len(lines), total, 1)
             chosen_by = "given (--sweep-deg)"
-        route = MakeRoute(
-            choice.decomposition,
-            spacing,
-            min_turning_radius,
-            start,
-            min_line_length=min_line_length,
-        )
-        if best is None or route.Length() < best.route.Length() - 1e-9:
-            best = FieldPlan(field, choice, route, chosen_by)
-    return best
+        d = choice.decomposition
+        route = nofly.PlanRoute(d, spacing, min_turning_radius, start, min_line_length, avoid)
+        score = Score(d, route)
+        if best is None or score < best[0] - 1e-9:
+            best = (score, FieldPlan(field, choice, route, chosen_by, avoid))
+    return best[1]
 
 
 def WithHomeLegs(route: Route, home) -> Route:
@@ -263,10 +278,13 @@ def BestStaticPlan(plan: FieldPlan, scenario, *, grid_size: int = 11, home=None)
     best = None
     tried = 0
     for c1 in np.linspace(lo, hi, grid_size):
-        route = MakeRoute(
-            d, LineSpacing(coverage, c1), coverage.min_turning_radius,
-            min_line_length=4.0 * coverage.trigger_radius,
-        )  # fmt: skip
+        try:
+            spacing, r_min = LineSpacing(coverage, c1), coverage.min_turning_radius
+            route = nofly.PlanRoute(
+                d, spacing, r_min, None, 4.0 * coverage.trigger_radius, plan.no_fly
+            )
+        except ValueError:  # no route at this spacing keeps out of the no-fly polygons
+            continue
         flown = WithHomeLegs(route, home)
         for c2 in itertools.product(*table.parameter_grids):
             tried += 1
@@ -346,6 +364,8 @@ def Summary(plan: FieldPlan, energy: dict | None = None) -> dict:
         "transit_length_m": route.Length("transit"),
         "path_length_m": route.Length(),
     }
+    if plan.no_fly is not None:
+        out["no_fly"] = nofly.NoFlySummary(plan.no_fly, route, plan.field.Polygon())
     if energy is not None:
         out["lowest_plan"] = energy
     return out
@@ -472,6 +492,7 @@ def FormatFieldPlan(summary: dict) -> str:
         f"transits        {s['transits']} between cells, {s['transit_length_m']:.0f} m",
         f"path length     {s['path_length_m']:.0f} m",
     ]
+    lines += nofly.NoFlyLines(s.get("no_fly"))
     lines += _MissionLines(s.get("mission"))
     lines += _AirspaceLines(s.get("airspace"))
     lines += _LowestPlanLines(s.get("lowest_plan"))
