@@ -170,9 +170,10 @@ def test_bad_grids_and_models_are_one_line_naming_the_field():
 
 
 def test_the_mdp_policy_flies_the_survey_within_its_model(monkeypatch):
-    """``planner.policy: mdp`` solves at take-off (a coarse grid here), then flies: it
+    """``planner.policy: mdp`` solves at take-off (a coarse grid here), then re-plans: it
     completes the fault-free survey above the reserve, its take-off solve keeps the excess within
-    ε, and it re-plans only at the stages' ends (a handful of changes, not one a second)."""
+    ε, it flies only the steps' largest c1 after the warm-up, and it does better than the pilot's
+    static plan on the same world (0.474)."""
     from eaplan_drake import registry
     from eaplan_drake.loading import LoadNamedScenario
     from eaplan_drake.planning import policies
@@ -197,9 +198,11 @@ def test_the_mdp_policy_flies_the_survey_within_its_model(monkeypatch):
     figures = made[0].figures
     assert figures["excess_rate"] <= scenario.planner.risk + 1e-9
     assert 0.0 < figures["quality"] <= 1.0
-    c1 = log["path_parameters"][:, 0]
-    changes = np.count_nonzero(np.diff(c1) != 0.0)
-    assert 1 <= changes <= 2 * 10
+    ((takeoff, solution),) = made[0]._solutions.items()
+    tops = {float(made[0].problem.grid[j]) for j in solution.mdp.path_index}
+    after = log.times > takeoff
+    assert set(np.unique(log["path_parameters"][after, 0]).tolist()) <= tops
+    assert log.summary["quality"] > 0.474
 
 
 def test_a_coarser_grid_rounds_the_sizes_up_and_keeps_their_mass(tiny):

@@ -67,6 +67,7 @@ __all__ = [
     "MdpSolution",
     "MissionMdp",
     "MissionMdpFromStep",
+    "MissionMdpNow",
     "Solve",
     "SEARCH_GRID",
     "SolveConstrained",
@@ -475,3 +476,35 @@ def MissionMdpFromStep(step, observation, grid: MdpGrid = MdpGrid()) -> MissionM
         grid=grid,
         path_index=tuple(path_index),
     )
+
+
+def MissionMdpNow(takeoff: MissionMdp, remaining, margin, flown, quality, grid: MdpGrid):
+    """The mission from a state in flight, modelled afresh: the take-off MDP's rows, rates and
+    faults, with the route's own remaining times ``remaining`` [s] (one per take-off step) as the
+    new staircase, the ``margin`` [-], the time ``flown`` [s] and the ``quality`` so far [-], on
+    ``grid`` (Δm a whole multiple of the take-off grid's). Steps with no time left are dropped;
+    of steps with the same time left, the one with the larger c1 is kept. Returns (the MDP, the
+    take-off index of each of its steps), or None when no margin or no step is left."""
+    left = np.asarray(remaining, dtype=float)
+    if not (margin > 0.0 and flown > 0.0 and left.size and left[0] > 0.0):
+        return None
+    kept: dict = {}
+    for s in np.flatnonzero(left > 0.0):
+        kept[round(float(left[s]), 6)] = int(s)  # ascending s: the largest c1 wins a tie
+    times = sorted(kept)
+    index = tuple(kept[t] for t in times)
+    pmf = takeoff.Regridded(grid).size_pmf if grid != takeoff.grid else takeoff.size_pmf
+    mdp = MissionMdp(
+        times=np.array(times),
+        quality=takeoff.quality[list(index)],
+        rates=takeoff.rates,
+        margin=float(margin),
+        flown_time=float(flown),
+        flown_quality=min(max(float(quality), 0.0), 1.0),
+        rate=takeoff.rate,
+        size_pmf=pmf,
+        lowest=(0, takeoff.lowest[1]),
+        grid=grid,
+        path_index=tuple(takeoff.path_index[i] for i in index) if takeoff.path_index else (),
+    )
+    return mdp, index

@@ -44,7 +44,14 @@ from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.planning.belief import SIZE_RESOLUTION
 from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
-from eaplan_drake.planning.mdp import MdpGrid, MissionMdpFromStep, SolveConstrained
+from eaplan_drake.planning.mdp import (
+    SEARCH_GRID,
+    MdpGrid,
+    MissionMdpFromStep,
+    MissionMdpNow,
+    Solve,
+    SolveConstrained,
+)
 from eaplan_drake.planning.mpc import MissionProblem, MissionStep, StaircaseSteps
 from eaplan_drake.planning.paper import Planner
 from eaplan_drake.planning.planner import PlannerDecision, PlannerObservation, PlannerPolicy
@@ -161,26 +168,32 @@ class StaticTakeoffPolicy(PlannerPolicy):
 
 
 class MdpPolicy(PlannerPolicy):
-    """The best non-clairvoyant policy of the planner's fluid model (``mdp``): at its first
-    step (take-off, as ``static_takeoff``) the mission's MDP
-    (:func:`~eaplan_drake.planning.mdp.MissionMdpFromStep`) is solved for the chance constraint
-    at ε = ``planner.risk`` (:func:`~eaplan_drake.planning.mdp.SolveConstrained`); at every
-    step after, the action with the best value to the end of the progress stage from the
-    flight's state (margin, time flown, quality so far; the progress read from the route's own
-    remaining times, :meth:`~eaplan_drake.planning.mdp.MdpSolution.Stage`) and optimal
-    after it.
+    """The planner's fluid model of the mission solved as an MDP, flown by re-planning (``mdp``).
 
-    The action is held until the stage ends or a drop is detected (the SoC more than
-    :data:`FALLBACK_DROP` below what the held action spends), the MDP's own decision epochs.
+    At its first step (take-off, as ``static_takeoff``) the mission's MDP
+    (:func:`~eaplan_drake.planning.mdp.MissionMdpFromStep`) is solved for the chance constraint
+    at ε = ``planner.risk`` (:func:`~eaplan_drake.planning.mdp.SolveConstrained`): its value is
+    the model's best (:attr:`figures`), and its Lagrange multiplier μ prices a failure for the
+    rest of the flight. At every re-plan, the MDP of the flight's state with the route's own
+    remaining times (:func:`~eaplan_drake.planning.mdp.MissionMdpNow`, on ``replan_grid``) is
+    solved for that μ, and its first stage's best action is flown: for 1/N of the chosen step's
+    remaining time (at least one planner period), or until a drop is detected (the SoC more than
+    :data:`FALLBACK_DROP` below what the action spends). Re-planning keeps the model's fraction
+    of the survey from drifting away from the route, whose remaining time is whole repetitions.
 
     Memory: [solved (0/1), take-off time [s], ∫J dt so far, time of the last step [s], J of the
-    plan flown, the action (s, k) flown, the stage it was chosen for, the SoC [-] and the time
-    [s] it was chosen at]. The solved tables are kept by the policy per take-off time
-    (a pure function of the take-off observation)."""
+    plan flown, the action (s, k) flown (take-off step and row), the step's remaining time [s]
+    at which to re-plan, the SoC [-] and the time [s] it was chosen at]. The take-off solution is
+    kept by the policy per take-off time (a pure function of the take-off observation)."""
 
     name = "mdp"
 
-    def __init__(self, problem: MissionProblem, grid: MdpGrid | None = None):
+    def __init__(
+        self,
+        problem: MissionProblem,
+        grid: MdpGrid | None = None,
+        replan_grid: MdpGrid = SEARCH_GRID,
+    ):
         if problem.risk_reserve is None:
             raise ValueError(
                 "planner.policy: mdp prices its plans with the fault model; "
@@ -188,6 +201,8 @@ class MdpPolicy(PlannerPolicy):
             )
         self.problem = problem
         self.grid = MdpGrid() if grid is None else grid
+        self.replan_grid = replan_grid
+        """The grid of the MDP solved afresh at each re-plan."""
         self.figures: dict = {}
         """The take-off figures of the last solve (quality, completion, excess, μ)."""
         self._solutions: dict = {}
@@ -221,25 +236,32 @@ class MdpPolicy(PlannerPolicy):
         solution = self._solutions.get(float(memory[1]))
         if solution is None:
             return self._Lowest(memory, "infeasible at take-off: the lowest plan", False)
-        mdp = solution.mdp
-        left = np.array([float(o.remaining_time[j]) for j in mdp.path_index])
+        takeoff = solution.mdp
+        left = np.array([float(o.remaining_time[j]) for j in takeoff.path_index])
         held, row = int(memory[5]), int(memory[6])
-        n = solution.Stage(left)
-        predicted = memory[8] - mdp.rates[row] * (float(o.time) - memory[9])
-        if memory[7] == n and not float(o.soc) < predicted - FALLBACK_DROP:
-            return self._Held(memory, mdp, held, row, n)
-        margin = float(o.soc) - pb.reserve_soc
+        predicted = memory[8] - takeoff.rates[row] * (float(o.time) - memory[9])
+        dropped = float(o.soc) < predicted - FALLBACK_DROP
+        if memory[7] > 0.0 and left[held] > memory[7] and not dropped:
+            return self._Held(memory, takeoff, held, row, "held")
         flown = max(float(o.time), 1e-9)
-        values = solution.ActionValues(margin, flown, memory[2] / flown, left, pb.step_length)
-        values = values[..., 0]
+        margin = float(o.soc) - pb.reserve_soc
+        now = MissionMdpNow(takeoff, left, margin, flown, memory[2] / flown, self.replan_grid)
+        if now is None:
+            return self._Lowest(memory, "no margin left: the lowest plan", False)
+        mdp, index = now
+        values = Solve(mdp, solution.penalty).ActionValues(
+            margin, flown, mdp.flown_quality, mdp.times, pb.step_length
+        )[..., 0]
         if not np.max(values) > 0.0:
             return self._Lowest(memory, "lost in the model from here: the lowest plan", False)
-        held, row = np.unravel_index(int(np.argmax(values)), values.shape)
-        memory[5:] = (held, row, n, float(o.soc), float(o.time))
-        return self._Held(memory, mdp, held, row, n, "the MDP's action for stage")
+        i, row = np.unravel_index(int(np.argmax(values)), values.shape)
+        held = index[i]
+        until = left[held] - max(left[held] / self.replan_grid.stages, pb.step_length)
+        memory[5:] = (held, row, until, float(o.soc), float(o.time))
+        return self._Held(memory, takeoff, held, row, "re-planned")
 
-    def _Held(self, memory, mdp, s, k, n, why="held to the end of stage"):
-        """The action (s, k) of the MDP, held until the stage n ends or a drop comes."""
+    def _Held(self, memory, mdp, s, k, why):
+        """The action (s, k) of the take-off MDP's steps and rows, flown."""
         pb = self.problem
         memory[4] = float(mdp.quality[s, k])
         return PlannerDecision(
@@ -248,7 +270,7 @@ class MdpPolicy(PlannerPolicy):
             memory,
             True,
             True,
-            f"{why} {n + 1} of {mdp.grid.stages}",
+            f"{why}: c1 of step {s + 1} of {mdp.times.size}, c2 row {k + 1}",
             kind="mdp",
         )
 
