@@ -39,8 +39,11 @@ GRIDS = (
 
 
 def Table(paths, worlds: int) -> None:
-    print("| rows | policy | excess / feasible | rate | quality (lost = 0) | predicted (mdp) |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print(
+        "| rows | policy | excess / feasible | rate | quality (lost = 0) on the feasible | "
+        "on all worlds | predicted (mdp) |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     for path in paths:
         by_world: dict = {}
         with open(path) as f:
@@ -54,20 +57,21 @@ def Table(paths, worlds: int) -> None:
             feasible = [w for w in pairs if w["lowest"]["completed"]]
             lost = sum(not w[name]["completed"] for w in feasible)
             quality = [w[name]["quality"] if w[name]["completed"] else 0.0 for w in feasible]
+            every = [w[name]["quality"] if w[name]["completed"] else 0.0 for w in pairs]
             predicted = ""
             if name == "mdp":
                 rows = [w[name] for w in pairs if "predicted_quality" in w[name]]
                 flown = np.array([r["quality"] if r["completed"] else 0.0 for r in rows])
                 said = np.array([r["predicted_quality"] for r in rows])
                 error = float(np.std(flown, ddof=1) / math.sqrt(flown.size))
-                predicted = (
-                    f"{said.mean():.3f} predicted, {flown.mean():.3f} ± {error:.3f} flown "
-                    f"(all {flown.size} worlds)"
-                )
+                predicted = f"{said.mean():.3f} predicted, {flown.mean():.3f} ± {error:.3f} flown"
             n = len(feasible)
+            label = os.path.basename(path)
+            if label == "rows.jsonl":  # a study's directory names it
+                label = os.path.basename(os.path.dirname(os.path.abspath(path)))
             print(
-                f"| {os.path.basename(os.path.dirname(path)) or path} | {name} | {lost} / {n} | "
-                f"{lost / n:.3f} | {np.mean(quality):.3f} | {predicted} |"
+                f"| {label} | {name} | {lost} / {n} | {lost / n:.3f} | {np.mean(quality):.3f} | "
+                f"{np.mean(every):.3f} ({len(pairs)}) | {predicted} |"
             )
 
 
