@@ -326,7 +326,7 @@ def _LineLeg(line, cell: int) -> Leg:
 
 
 def _NextCell(cell_lines, jump, todo, Seq, last, position, r_min, no_fly, shortest, order_by):
-    """(cost, cell, :func:`_Entry`) of the next cell from ``position`` [m] (the end of line
+    """(cost, cell, ``_Entry``) of the next cell from ``position`` [m] (the end of line
     ``last``, or the start), or None when no transit reaches any of ``todo``: candidates
     (cell, orientation) by the distance to the start of their uncut lines; the first that has
     an entry (``order_by="distance"``), or the shortest entry."""
@@ -374,7 +374,7 @@ def AvoidingLegs(
     """The legs of :func:`~eaplan_drake.field.route.MakeRoute` that keep out of ``no_fly``'s
     zone: each cell's lines by :func:`ClearCellLines`, the next cell and its orientation those
     of the shortest transit that keeps out (``order_by="transit"``) or of the nearest start that
-    has one (``"distance"``), entered by :func:`_Entry`. Raises
+    has one (``"distance"``), entered by ``_Entry``. Raises
     :class:`~eaplan_drake.field.airspace.AirspaceError` naming ``coverage.no_fly_holes`` when
     no cell left can be reached."""
     from eaplan_drake.field.route import CellLegs
@@ -514,7 +514,7 @@ def WithHomeTransits(route, home, no_fly: NoFly):
     a turn of radius r_min from the route's end until it heads at home, then the straight leg
     home (:func:`~eaplan_drake.field.plan.WithHomeLegs`), when both keep out; else a transit
     along the visibility path (:func:`VisibilityPath`) that leaves a straight leg home clear of
-    it; if none does, the last line is shortened or left out (:func:`_Return`). Where the
+    it; if none does, the last line is shortened or left out (``_Return``). Where the
     straight leg from home to the route's start would enter the zone, a transit from home is
     put before it. Raises :class:`~eaplan_drake.field.airspace.AirspaceError` naming
     ``coverage.no_fly_holes`` when no way keeps out."""
