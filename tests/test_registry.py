@@ -93,6 +93,7 @@ def test_the_shipped_tables_name_every_choice():
         "static",
         "hindsight",
         "static_takeoff",
+        "mdp",
     )
     assert AIRCRAFT_MODELS.Names() == ("continuous", "exact_arc")
     assert PLAN_SOURCES.Names() == ("zamboni", "plan_file", "field")
