@@ -61,6 +61,8 @@ import math
 
 import numpy as np
 
+from eaplan_drake.planning.risk import PoissonPmf
+
 __all__ = [
     "MAX_DROPS_PER_STAGE",
     "MdpGrid",
@@ -166,11 +168,10 @@ class MissionMdp:
         """The probability that the drops in ``exposure`` [s] total i Δm (i = 0, 1, ...; the
         sizes rounded up), for up to :data:`MAX_DROPS_PER_STAGE` drops (the rest is missing
         mass: a failure)."""
-        mean = self.rate * float(exposure)
+        weights = PoissonPmf(self.rate * float(exposure), MAX_DROPS_PER_STAGE)
         kernel = np.zeros(1 + MAX_DROPS_PER_STAGE * (self.size_pmf.size - 1))
         conv = np.array([1.0])
-        for count in range(MAX_DROPS_PER_STAGE + 1):
-            weight = math.exp(-mean) * mean**count / math.factorial(count)
+        for weight in weights:
             kernel[: conv.size] += weight * conv
             conv = np.convolve(conv, self.size_pmf)
         return kernel
@@ -456,8 +457,7 @@ def MissionMdpFromStep(step, observation, grid: MdpGrid = MdpGrid()) -> MissionM
     model = pb.risk_reserve.stated_model
     step_m = grid.margin_step
     edges = np.arange(0, math.ceil(model.sizes.upper / step_m - 1e-9) + 1) * step_m
-    tail = np.array([float(model.sizes.sum_tail(1, np.array(e))[1]) for e in edges])
-    tail[0] = 1.0 if model.sizes.sum_tail(1, np.array(0.0))[1] > 0 else tail[0]
+    tail = model.sizes.sum_tail(1, edges)[:, 1]  # P(X > i Δm)
     pmf = np.concatenate(([1.0 - tail[0]], -np.diff(tail)))
     c1_now = float(observation.path_parameter)
     u1_now = float(np.interp(c1_now, pb.grid, pb.u1))
