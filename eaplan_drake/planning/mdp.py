@@ -288,38 +288,21 @@ class MdpSolution:
         v = _AlongMargin(v, mdp.grid.margin_step, [mdp.margin])[0, 0, 0]
         return float(v[0] - self.penalty * v[1]), float(v[1])
 
-    def Stage(self, remaining) -> int:
-        """The stage n of a flight's state from the survey time ``remaining`` [s] (S,) each step
-        s would take from here: the least progress p = min_s (1 − remaining_s / t_s). The route
-        is not fluid: a switch to a lower step can leave more of the survey than the fraction
-        flown says (the lowest plan's remaining time jumps by whole repetitions), and the least
-        progress prices that conservatively."""
+    def StartActionValues(self, shortest: float = 0.0) -> np.ndarray:
+        """(V_μ, P(complete)) (S, K, 2) of flying each action (s, k) from take-off for the first
+        stage (t_s / N seconds, at least ``shortest`` [s]), then optimally. The drops on the way
+        are those of a whole stage (conservative when ``shortest`` lengthens it)."""
         mdp = self.mdp
-        big_n = mdp.grid.stages
-        progress = np.clip(1.0 - np.asarray(remaining, dtype=float) / mdp.times, 0.0, 1.0)
-        return min(int(math.floor(float(np.min(progress)) * big_n + 1e-9)), big_n - 1)
-
-    def ActionValues(self, margin, flown, quality, remaining, shortest=0.0) -> np.ndarray:
-        """(V_μ, P(complete)) (S, K, 2) of flying each action from a state (``margin`` [-], time
-        ``flown`` [s], ``quality`` so far [-]) where step s has ``remaining[s]`` [s] of survey
-        left (the route's own): to the end of the state's stage n (:meth:`Stage`), which step s
-        reaches after remaining_s − (1 − (n + 1)/N) t_s seconds (at least ``shortest`` [s]),
-        then optimally. The drops on the way are those of a whole stage (conservative when the
-        exposure is shorter)."""
-        mdp = self.mdp
-        big_n = mdp.grid.stages
-        remaining = np.asarray(remaining, dtype=float)
-        n = self.Stage(remaining)
-        to_go = (1.0 - (n + 1) / big_n) * mdp.times
-        exposures = np.maximum(remaining - to_go, float(shortest))
+        exposures = np.maximum(mdp.times / mdp.grid.stages, float(shortest))
+        flown, quality = np.array([mdp.flown_time]), np.array([mdp.flown_quality])
         out = np.zeros(mdp.quality.shape + (2,))
         for s, dt in enumerate(exposures):
-            t_new, q_new = _Flown(mdp, np.array([flown]), np.array([quality]), s, dt)
-            v = _AlongTime(self.AfterDrops(n + 1, s), mdp.TimeNodes(n + 1), t_new)
+            t_new, q_new = _Flown(mdp, flown, quality, s, dt)
+            v = _AlongTime(self.AfterDrops(1, s), mdp.TimeNodes(1), t_new)
             v = _AlongQuality(v, mdp.quality_nodes, q_new)[:, 0]  # (n_m, K, 2)
             for k in range(mdp.rates.size):
                 out[s, k] = _AlongMargin(
-                    v[:, k], mdp.grid.margin_step, [margin - mdp.rates[k] * dt]
+                    v[:, k], mdp.grid.margin_step, [mdp.margin - mdp.rates[k] * dt]
                 )[0]
         return out
 

@@ -249,9 +249,7 @@ class MdpPolicy(PlannerPolicy):
         if now is None:
             return self._Lowest(memory, "no margin left: the lowest plan", False)
         mdp, index = now
-        values = Solve(mdp, solution.penalty).ActionValues(
-            margin, flown, mdp.flown_quality, mdp.times, pb.step_length
-        )[..., 0]
+        values = Solve(mdp, solution.penalty).StartActionValues(pb.step_length)[..., 0]
         if not np.max(values) > 0.0:
             return self._Lowest(memory, "lost in the model from here: the lowest plan", False)
         i, row = np.unravel_index(int(np.argmax(values)), values.shape)
