@@ -431,7 +431,7 @@ def MissionMdpFromStep(step, observation, grid: MdpGrid = MdpGrid()) -> MissionM
         [(soc0 - float(step.SocAt(float(g), t_low))) / t_low + uncertainty
          for g in pb.candidate_power]
     )  # fmt: skip
-    if not np.all(np.isfinite(rates)):
+    if not np.all(np.isfinite(rates) & (rates > 0.0)):
         return None
     quality = np.array([[pb.Quality(j, u2) for u2 in pb.candidate_u2] for j in path_index])
     margin = soc0 - pb.reserve_soc
