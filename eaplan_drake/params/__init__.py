@@ -69,6 +69,7 @@ from eaplan_drake.params.periods import RATE_TOLERANCE, IntegerMultiple, TicksPe
 from eaplan_drake.params.planner import (
     C1_MAX_TOLERANCE,
     FAULT_SIZE_DISTRIBUTIONS,
+    PACK_CAPACITY_SOURCES,
     POINT_MODEL_VALUES,
     RESERVE_RULES,
     FaultModelParams,
@@ -119,6 +120,7 @@ __all__ = [
     "MotionPowerParams",
     "PlannerParams",
     "RATE_TOLERANCE",
+    "PACK_CAPACITY_SOURCES",
     "RESERVE_RULES",
     "Scenario",
     "ScenarioError",

@@ -160,6 +160,9 @@ FAULT_SIZE_DISTRIBUTIONS = ("uniform", "exponential", "empirical")
 RESERVE_RULES = ("risk", "fixed")
 """Values of ``planner.reserve``."""
 
+PACK_CAPACITY_SOURCES = ("nominal", "estimated")
+"""Values of ``planner.capacity``: the pack's usable capacity the mpc plans with."""
+
 
 @dc.dataclass
 class PlannerParams(_Params):
@@ -231,6 +234,10 @@ class PlannerParams(_Params):
     """With ``reserve: risk``, what the mpc does once it sees a SoC drop (its SoC more than 0.01
     below the one-step prediction): ``replan`` (keep deciding with the risk constraint) or
     ``lowest`` (fly the lowest plan to the end: the fallback its excess risk assumes)."""
+    capacity: str = "nominal"
+    """The pack's usable capacity the mpc plans with: ``nominal`` (its label, the default) or
+    ``estimated`` (learnt in flight from the SoC it reads against the fall it predicted,
+    :mod:`eaplan_drake.planning.capacity`; a worn pack is then priced as worn)."""
     risk: float = 0.05
     """ε, the largest excess risk of a decision with ``reserve: risk`` [-], in (0, 1): the
     probability, under ``fault_model``, that the mission fails although the lowest plan flown from
@@ -304,6 +311,27 @@ class PlannerParams(_Params):
             f"{key}.power_model",
             f'must be "quadratic" or "linear", got {self.power_model!r}',
         )
+        self._ValidateReserve(key)
+        _check(
+            self.solver in ("ipopt", "snopt"),
+            f"{key}.solver",
+            f'must be "ipopt" or "snopt", got {self.solver!r}',
+        )
+        _check(
+            isinstance(self.max_iterations, int) and 1 <= self.max_iterations <= 10_000,
+            f"{key}.max_iterations",
+            f"must be an integer in [1, 10000], got {self.max_iterations!r}",
+        )
+        _nonnegative(self.max_wall_time, f"{key}.max_wall_time")
+        _check(
+            isinstance(self.hindsight_path_parameters, int)
+            and 2 <= self.hindsight_path_parameters <= 101,
+            f"{key}.hindsight_path_parameters",
+            f"must be an integer in [2, 101], got {self.hindsight_path_parameters!r}",
+        )
+
+    def _ValidateReserve(self, key: str) -> None:
+        """The keys of what the mpc holds back: margin, reserve rule, risk and its belief."""
         _in_range(self.margin_floor, f"{key}.margin_floor", 0.0, 1.0 - 1e-9)
         _in_range(self.margin_sigmas, f"{key}.margin_sigmas", 0.0, 100.0)
         _in_range(self.fault_reserve, f"{key}.fault_reserve", 0.0, 1.0 - 1e-9)
@@ -324,25 +352,13 @@ class PlannerParams(_Params):
             f"{key}.after_drop",
             f'must be "replan" or "lowest", got {self.after_drop!r}',
         )
+        _check(
+            self.capacity in PACK_CAPACITY_SOURCES,
+            f"{key}.capacity",
+            f"must be one of {', '.join(PACK_CAPACITY_SOURCES)}, got {self.capacity!r}",
+        )
         _in_range(self.risk, f"{key}.risk", 1e-6, 1.0 - 1e-6)
         self.fault_model.Validate(f"{key}.fault_model")
-        _check(
-            self.solver in ("ipopt", "snopt"),
-            f"{key}.solver",
-            f'must be "ipopt" or "snopt", got {self.solver!r}',
-        )
-        _check(
-            isinstance(self.max_iterations, int) and 1 <= self.max_iterations <= 10_000,
-            f"{key}.max_iterations",
-            f"must be an integer in [1, 10000], got {self.max_iterations!r}",
-        )
-        _nonnegative(self.max_wall_time, f"{key}.max_wall_time")
-        _check(
-            isinstance(self.hindsight_path_parameters, int)
-            and 2 <= self.hindsight_path_parameters <= 101,
-            f"{key}.hindsight_path_parameters",
-            f"must be an integer in [2, 101], got {self.hindsight_path_parameters!r}",
-        )
 
     @property
     def is_static(self) -> bool:

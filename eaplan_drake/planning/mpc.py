@@ -27,11 +27,12 @@ import math
 
 import numpy as np
 
-from eaplan_drake.energy.battery_model import AsBatteryModel
+from eaplan_drake.energy.battery_model import AsBatteryModel, BatteryModel
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.energy.fourier import FreeResponseMatrix, StateSize
 from eaplan_drake.params import MAX_TIME_LIMIT, BatteryParams, PlannerParams
 from eaplan_drake.planning import grid_search
+from eaplan_drake.planning.capacity import PlannedPack
 from eaplan_drake.planning.margins import (
     FloorMargin,
     Margin,
@@ -172,6 +173,7 @@ class MissionProblem:
         self._candidate_index: dict = {}
         self._grid_rows: dict = {}
         self._option_brackets = None
+        self._packs = {1.0: self.battery_model}
 
     # -- what depends on the scenario only ----------------------------------------------------
 
@@ -225,8 +227,23 @@ class MissionProblem:
 
     # -- a step --------------------------------------------------------------------------------
 
+    def PackModel(self, health: float) -> BatteryModel:
+        """The battery model of the pack with the usable fraction ``health`` of its label
+        (:func:`~eaplan_drake.planning.capacity.PlannedPack`; 1: the nominal
+        ``battery_model``), kept per value."""
+        key = float(health)
+        if key not in self._packs:
+            self._packs[key] = PlannedPack(self.battery_model.params, key)
+        return self._packs[key]
+
     def Step(
-        self, observation, budget: float | None = None, anchor=None, observed=(), drops: int = 0
+        self,
+        observation,
+        budget: float | None = None,
+        anchor=None,
+        observed=(),
+        drops: int = 0,
+        health: float = 1.0,
     ) -> "MissionStep":
         """The :class:`MissionStep` of a
         :class:`~eaplan_drake.planning.planner.PlannerObservation` (see :meth:`StepFromState`)."""
@@ -243,6 +260,7 @@ class MissionProblem:
             observed=observed,
             flown=o.time,
             drops=drops,
+            health=health,
         )
 
     def StepFromState(
@@ -259,18 +277,21 @@ class MissionProblem:
         observed=(),
         flown: float = 0.0,
         drops: int = 0,
+        health: float = 1.0,
     ) -> "MissionStep":
         """The step of the state q̂ [W], Var(α̂0) [W²], b0 [-], T [s], t_rem at the grid [s] and
         c_now; with ``reserve: risk`` its excess-risk ``budget`` ε_k [-] (None: ``planner.risk``)
         and the mission's ``anchor`` (τ_a [s] still to fly, m_a [-]): the lowest plan as it
         stood when the budget opened (None: the lowest plan of this state), the drop sizes
         ``observed`` [-] so far, the time ``flown`` [s] and the ``drops`` detected (the risk
-        reserve's belief learns from them)."""
+        reserve's belief learns from them); every SoC on the pack of usable fraction ``health``
+        [-] of its label (:meth:`PackModel`)."""
+        model = self.PackModel(health)
         prediction = StepPrediction(
-            self, energy_coefficients, soc, period, remaining_time, computation_parameters
+            self, energy_coefficients, soc, period, remaining_time, computation_parameters, model
         )
         q0 = float(prediction.q[0])
-        s_b = -float(self.battery_model.SocRateSlope(max(q0, 0.0)))
+        s_b = -float(model.SocRateSlope(max(q0, 0.0)))
         sigma = math.sqrt(max(float(mean_power_variance), 0.0))
         rate = float(self.params.margin_sigmas) * s_b * sigma  # [1/s]
         if self.risk_reserve is None:
@@ -305,14 +326,16 @@ class StepPrediction:
     the half steps (``f_half`` [W]) and the grid's plans longer than it (``beyond``).
     """
 
-    def __init__(self, problem, energy_coefficients, soc, period, remaining_time, c_now):
+    def __init__(
+        self, problem, energy_coefficients, soc, period, remaining_time, c_now, battery_model=None
+    ):
         q = np.asarray(energy_coefficients, dtype=float).reshape(-1)
         t_rem = np.asarray(remaining_time, dtype=float).reshape(-1)
         if q.size != problem.state_size:
             raise ValueError(f"energy_coefficients: expected {problem.state_size}, got {q.size}")
         if t_rem.size != problem.grid.size:
             raise ValueError(f"remaining_time: expected {problem.grid.size}, got {t_rem.size}")
-        self.battery_model = problem.battery_model
+        self.battery_model = problem.battery_model if battery_model is None else battery_model
         self.candidate_keys = problem.candidate_keys
         self.step_length = h = problem.step_length
         self.q = q

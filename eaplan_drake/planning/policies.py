@@ -43,6 +43,7 @@ from pydrake.common.containers import namedview
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.planning.belief import SIZE_RESOLUTION
+from eaplan_drake.planning.capacity import InitialPack, ObservePack, PredictPack
 from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
 from eaplan_drake.planning.mdp import (
     SEARCH_GRID,
@@ -353,6 +354,10 @@ class MpcPolicy(PlannerPolicy):
         self._falls_back = self._risk and p.after_drop == "lowest"
         self._budget = float(p.risk) if self._risk else 0.0
         self._warm_size = self.program.variables.size
+        self._risk_end = self._warm_size + (len(RiskMemory.Zero()[:]) if self._risk else 0)
+        self._learns_capacity = p.capacity == "estimated"
+        self.figures: dict = {}
+        """The last step's estimate ``pack_health`` ĥ [-] (``capacity: estimated``)."""
 
     def InitialMemory(self) -> np.ndarray:
         memory = np.zeros(self._warm_size)
@@ -361,6 +366,9 @@ class MpcPolicy(PlannerPolicy):
             tail.predicted_soc, tail.drops, tail.anchor_end = UNSET, 0.0, UNSET
             tail.anchor_margin = 0.0
             memory = np.concatenate((memory, tail[:]))
+        if self._learns_capacity:
+            memory = np.concatenate((memory, InitialPack()[:]))
+        self.figures = {}
         return memory
 
     def Budget(self, drops: int) -> float:
@@ -375,15 +383,21 @@ class MpcPolicy(PlannerPolicy):
         return self._Step(observation, memory)[0]
 
     def _Step(self, observation, memory):
-        """(the step, the updated :data:`RiskMemory` or None). The remaining times are read by
-        steps of the staircase (:func:`~eaplan_drake.planning.mpc.StaircaseSteps`)."""
+        """(the step, the updated :data:`RiskMemory` or None, the updated
+        :data:`~eaplan_drake.planning.capacity.CapacityMemory` or None). The remaining times are
+        read by steps of the staircase (:func:`~eaplan_drake.planning.mpc.StaircaseSteps`)."""
         o, pb = observation, self.problem
         if o.remaining_time is not None:
             steps = StaircaseSteps(o.remaining_time, pb.step_length)
             o = dataclasses.replace(o, remaining_time=steps)
+        pack = None  # capacity: estimated
+        if self._learns_capacity:
+            pack = ObservePack(memory[self._risk_end :], o.soc, FALLBACK_DROP)
+            self.figures["pack_health"] = float(pack.health)
+        health = 1.0 if pack is None else float(pack.health)
         if not self._risk:
-            return pb.Step(o), None
-        tail = RiskMemory(np.array(memory[self._warm_size :], dtype=float))
+            return pb.Step(o, health=health), None, pack
+        tail = RiskMemory(np.array(memory[self._warm_size : self._risk_end], dtype=float))
         # (UNSET, or a prediction below empty: nothing to compare with)
         if tail.predicted_soc >= 0.0 and o.soc < tail.predicted_soc - FALLBACK_DROP:
             # a drop: a new, halved budget, anchored at this state; its size is remembered
@@ -396,16 +410,17 @@ class MpcPolicy(PlannerPolicy):
             anchor = (tail.anchor_end - float(o.time), tail.anchor_margin)
         seen = range(1, min(int(tail.drops), LEARNT_SIZES) + 1)
         observed = tuple(float(getattr(tail, f"size_{i}")) for i in seen)
-        return pb.Step(o, self.Budget(tail.drops), anchor, observed, int(tail.drops)), tail
+        step = pb.Step(o, self.Budget(tail.drops), anchor, observed, int(tail.drops), health)
+        return step, tail, pack
 
     def Plan(self, observation, memory) -> PlannerDecision:
         o, pb = observation, self.problem
         if not _Finite(o):
             return _InvalidInput(pb, memory)
-        step, tail = self._Step(o, memory)
+        step, tail, pack = self._Step(o, memory)
         warm = memory[: self._warm_size]
         if tail is None:
-            return self._Plan(o, warm, step)
+            return self._Remember(o, step, self._Plan(o, warm, step), pack)
         if self._falls_back and tail.drops > 0.0:
             low = step.Lowest()
             d = PlannerDecision(
@@ -426,7 +441,18 @@ class MpcPolicy(PlannerPolicy):
         power = float(pb.table.power(np.asarray(d.computation_parameters, dtype=float)))
         tail.predicted_soc = float(step.SocAt(power, pb.step_length))
         d.memory = np.concatenate((d.memory, tail[:]))
-        return d
+        return self._Remember(o, step, d, pack)
+
+    def _Remember(self, observation, step, decision, pack) -> PlannerDecision:
+        """``decision``, its memory followed by ``pack`` (if any) predicted one period ahead."""
+        if pack is None:
+            return decision
+        pb = self.problem
+        power = float(pb.table.power(np.asarray(decision.computation_parameters, dtype=float)))
+        ahead = float(step.SocAt(power, pb.step_length))
+        pack = PredictPack(pack, observation.soc, ahead)
+        decision.memory = np.concatenate((decision.memory, pack[:]))
+        return decision
 
     def _Plan(self, observation, memory, step) -> PlannerDecision:
         o = observation

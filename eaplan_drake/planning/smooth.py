@@ -29,7 +29,7 @@ class SmoothModel:
         self.step = step
         self.margin = step.margin
         self.step_length = pb.step_length
-        self.battery_model = pb.battery_model
+        self.battery_model = prediction.battery_model
         self.lowest_power = pb.lowest_power
         self.f_half = prediction.f_half
         self.g_now = prediction.g_now
