@@ -33,6 +33,7 @@ FLIGHTS = {
     "plan_ii_mpc": ("plan_ii", ["planner: {policy: mpc}"]),
     "plan_i_greedy_wind": ("plan_i", ["planner: {policy: greedy}", "wind: {speed: 6.0}"]),
     "survey": ("survey", []),
+    "funen": ("funen", []),
 }
 
 CHILD = """

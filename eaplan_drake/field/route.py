@@ -2,10 +2,13 @@
 cells; its length, and its time and energy at the lowest plan.
 
 Within a cell the lines are flown in a Zamboni-like order (paper 003 Sec. IV-A): with J =
-⌈2 r_min / x_d⌉, blocks of up to 2(J + 1) consecutive lines are flown i, i + h, i + 1, i + 1 + h,
-… (h = half the block, rounded up: J + 1 in a full block), so that in a full block the outgoing
-turns join lines (J + 1) x_d apart and the return turns lines J x_d ≥ 2 r_min apart (the
-paper's r1 = r + x_d/2 and r2 = r at c1 = 0, with r = J x_d / 2).
+⌈2 r_min / x_d⌉, blocks of 2(J + 1) consecutive lines are flown i, i + h, i + 1, i + 1 + h, …
+(h = J + 1), so that the outgoing turns join lines (J + 1) x_d apart and the return turns lines
+J x_d ≥ 2 r_min apart (the paper's r1 = r + x_d/2 and r2 = r at c1 = 0, with r = J x_d / 2).
+Every other block is flown from its upper half (i + h, i, i + 1 + h, …), so that a block ends
+h + 1 lines from the next block's first line, and a last block shorter than 2(J + 1) lines joins
+the one before (h grows to half the merged block): a cell at least 2(J + 1) lines wide has no
+turn between lines closer than 2 r_min. A narrower cell is one block of m lines, h = ⌈m/2⌉.
 
 A turn is the shortest path of curvature at most 1/r_min from the end of a line, along it, to the
 start of the next, along that one (Dubins': :func:`DubinsPieces`), so it is tangent to both
@@ -115,17 +118,27 @@ class Route:
 
 
 def ZamboniOrder(n: int, jump: int) -> list[int]:
-    """The order 0..n−1 of a cell's lines for return turns at least ``jump`` J lines apart in
-    full blocks (see the module docstring)."""
-    order = []
+    """The order 0..n−1 of a cell's lines for turns at least ``jump`` J lines apart wherever the
+    cell has 2(J + 1) lines or more (see the module docstring): blocks of 2(J + 1) lines, a
+    shorter last block merged into the one before, every other block flown from its upper half,
+    so that a block ends h + 1 lines from where the next one starts. A cell narrower than one
+    block is one block (its turns are closer: Ω turns where they are under 2 r_min apart)."""
     block = 2 * (jump + 1)
-    for first in range(0, n, block):
-        m = min(block, n - first)
-        h = (m + 1) // 2
-        for i in range(h):
-            order.append(first + i)
-            if i + h < m:
-                order.append(first + i + h)
+    firsts = list(range(0, n, block))
+    if len(firsts) > 1 and n - firsts[-1] < block:
+        firsts.pop()  # the short last block joins the one before
+    ends = [*firsts[1:], n]
+    order = []
+    for b, (first, end) in enumerate(zip(firsts, ends, strict=True)):
+        m = end - first
+        if b % 2 == 0:  # i, i + h, … from the lower half (h = ⌈m/2⌉)
+            h = (m + 1) // 2
+            pairs = [(first + i, first + i + h) for i in range(h)]
+        else:  # i + h, i, … from the upper half (h = ⌊m/2⌋: its extra line is the last)
+            h = m // 2
+            pairs = [(first + i + h, first + i if i < h else end) for i in range(m - h)]
+        for a, c in pairs:
+            order += [v for v in (a, c) if v < end]
     return order
 
 
