@@ -26,6 +26,21 @@ def test_zamboni_order_visits_every_line_once_and_jumps_far():
     assert jumps.min() >= 14
 
 
+def test_a_cell_of_a_full_block_or_more_has_no_turn_closer_than_the_jump():
+    """Every order of n ≥ 2(J + 1) lines joins lines at least J apart (no Ω turn): across
+    block boundaries (every other block from its upper half) and in a merged short last
+    block; a narrower cell is one block, as before."""
+    for jump in range(1, 16):
+        for n in range(2 * (jump + 1), 8 * (jump + 1) + 3):
+            order = ZamboniOrder(n, jump)
+            assert sorted(order) == list(range(n)), (n, jump)
+            assert np.abs(np.diff(order)).min() >= jump, (n, jump)
+    assert ZamboniOrder(8, 3) == [0, 4, 1, 5, 2, 6, 3, 7]
+    assert ZamboniOrder(16, 3) == [0, 4, 1, 5, 2, 6, 3, 7, 12, 8, 13, 9, 14, 10, 15, 11]
+    assert ZamboniOrder(11, 3) == [0, 6, 1, 7, 2, 8, 3, 9, 4, 10, 5]  # 8 + 3 merged
+    assert ZamboniOrder(5, 15) == [0, 3, 1, 4, 2]  # narrower than a block: as before
+
+
 def _Heading(leg, where: str) -> np.ndarray:
     """Unit direction of travel at the start or end of a leg."""
     if leg.radius == 0.0:
