@@ -12,6 +12,7 @@ from eaplan_drake.diagram import MakeResolvedPolicy
 from eaplan_drake.energy.battery_model import AsBatteryModel
 from eaplan_drake.errors import ScenarioError
 from eaplan_drake.loading import LayerScenario, LoadNamedScenario, OverrideFromAssignment
+from eaplan_drake.output.summary_text import FormatSummary
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.params.bounds import MIN_BATTERY_HEALTH
 from eaplan_drake.planning.capacity import (
@@ -115,8 +116,13 @@ def worn_flights():
 def test_on_a_worn_pack_the_estimate_finds_the_health(worn_flights):
     summary, _ = worn_flights["estimated"]
     assert summary["completed"]
-    assert summary["planner"]["policy_figures"]["pack_health"] == pytest.approx(0.85, abs=0.01)
+    health = summary["planner"]["policy_figures"]["pack_health"]
+    assert health == pytest.approx(0.85, abs=0.01)
     assert "pack_health" not in worn_flights["nominal"][0]["planner"]["policy_figures"]
+    summary = dict(summary, wall_time=1.0, realtime_factor=1.0)
+    assert f"the pack holds {health:.2f} of its label (estimated in flight)" in FormatSummary(
+        summary
+    )
 
 
 def test_on_a_worn_pack_the_estimated_planner_predicts_the_soc_it_then_reads(worn_flights):

@@ -55,6 +55,11 @@ def FormatSummary(summary: dict) -> str:
         if infeasible:
             why, what = InfeasibleCause(policy)
             planning.append(f"{indent}{infeasible} steps where {why}; {what}")
+        health = (planner.get("policy_figures") or {}).get("pack_health")
+        if health is not None:
+            planning.append(
+                f"{indent}the pack holds {health:.2f} of its label (estimated in flight)"
+            )
     lines = [
         f"scenario        {summary['scenario']}",
         f"policy          {summary.get('policy', '?')}",
