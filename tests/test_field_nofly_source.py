@@ -93,6 +93,8 @@ def SmallField():
 
 
 def test_a_flight_in_wind_around_a_hole_completes_without_a_sample_in_it(tmp_path):
+    from eaplan_drake.field.airspace import RoutePoints
+    from eaplan_drake.flight.coverage import FlownStages
     from eaplan_drake.loading import LoadNamedScenario
     from eaplan_drake.rates import WithRates
     from eaplan_drake.resolve import ResolveScenario
@@ -107,12 +109,18 @@ def test_a_flight_in_wind_around_a_hole_completes_without_a_sample_in_it(tmp_pat
     scenario.coverage.no_fly_holes = True
     scenario.wind.speed, scenario.wind.direction_deg = 10.0, 45.0
     scenario = LowestPlan(scenario)
-    assert isinstance(ResolveScenario(scenario).plan, AvoidingFieldCoverage)
+    plan = ResolveScenario(scenario).plan
+    assert isinstance(plan, AvoidingFieldCoverage)
     log = Simulate(WithRates(scenario, "fast"))
     assert log.summary["completed"]
     points = shapely.points(log["position"])
     hole = shapely.Polygon(field.holes[0])
     assert np.count_nonzero(shapely.contains(hole, points)) == 0
+    # the route as flown (the missions written after the flight) keeps out of it too
+    stages = FlownStages(plan, log["stage"][:, 0], log["flown_path_parameter"][:, 0])
+    route = plan.FlownRoute(stages)
+    assert route.Count("line") == sum(1 for s in stages if s.primitive in (0, 2))
+    assert hole.distance(shapely.LineString(RoutePoints(route))) >= CLEARANCE - 0.01
 
 
 def test_no_way_around_the_hole_is_one_line_naming_the_key(tmp_path):

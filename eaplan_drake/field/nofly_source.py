@@ -2,31 +2,37 @@
 :class:`~eaplan_drake.field.source.FieldCoverage` kept out of the field's holes at every c1 the
 in-flight planner re-plans to, by the rules of :mod:`eaplan_drake.field.nofly`.
 
-The pre-flight plan at c̲1 (its cells those of the field minus the holes buffered by c + x_d(c̲1)/2,
-:func:`~eaplan_drake.field.nofly.SurveyPolygon`, wider than at any higher c1) fixes the cells and
-the order they are visited in. At a path parameter c1 each cell's lines at x_d(c1) are shortened
-where their turns would enter the holes buffered by c (:func:`~eaplan_drake.field.nofly.
-ClearCellLines`, for each orientation 0–3). The first cell is flown in its first orientation that
-keeps a line (as the pre-flight route), after the *approach* from ``vehicle.initial_position``
-along ψ(0); every later cell in the orientation whose transit from the previous cell's last line
-is shortest (:func:`~eaplan_drake.field.nofly.NextCell`): the Dubins path when it keeps out,
-else the visibility path around the holes flown through its corners (lines and arcs,
-:func:`~eaplan_drake.field.nofly.AvoidingTransit`), the last line's end and the first line's
-start shortened by e r_min (e of :data:`~eaplan_drake.field.nofly.ENTRY_CUTS`) where none keeps
-out otherwise (:func:`~eaplan_drake.field.nofly.EntryInto`; the approach only shortens the first
-line). Where no transit keeps out the plan is refused in one line naming
-``coverage.no_fly_holes`` (checked before the flight at c̲1, the initial c1 and c̄1).
+The pre-flight plan at c̲1 (its cells those of the field minus the holes buffered by
+c + x_d(c̲1)/2, :func:`~eaplan_drake.field.nofly.SurveyPolygon`, wider than at any higher c1)
+fixes the cells and the order they are visited in. At a path parameter c1 each cell's lines at
+x_d(c1) are shortened where their turns would enter the holes buffered by c, in each orientation
+0–3 (:func:`~eaplan_drake.field.nofly.ClearCellLines`). The first cell is flown in its first
+orientation that keeps a line (as the pre-flight route), after the *approach* from
+``vehicle.initial_position`` along ψ(0); every later cell in the orientation whose transit from
+the previous cell's last line is shortest (:func:`~eaplan_drake.field.nofly.NextCell`): the
+Dubins path when it keeps out, else the visibility path around the holes flown through its
+corners (straight pieces and arcs, each a stage,
+:func:`~eaplan_drake.field.nofly.AvoidingTransit`); where none keeps out the last line's end and
+the first line's start are shortened by s r_min (s of :data:`~eaplan_drake.field.nofly.ENTRY_CUTS`,
+:func:`~eaplan_drake.field.nofly.EntryInto`; the approach shortens the first line only), and
+where that fails too the last line is left out, as in the pre-flight route
+(:func:`~eaplan_drake.field.nofly.AvoidingLegs`). Where no transit keeps out the plan is refused
+in one line naming ``coverage.no_fly_holes`` (checked before the flight at c̲1, the initial c1
+and c̄1). Pieces shorter than 4 ε are left out as in
+:class:`~eaplan_drake.field.source.FieldCoverage`.
 
-A re-plan regenerates the later cells at the new c1, and with them the cut of the current cell's
-last line; only when that line is being flown its end is kept, and the transit shortens the next
-first line alone.
+A re-plan regenerates the later cells at the new c1, and with them the end of the current cell
+(its last line's cut, the lines left out); only when the line being flown is its last line, or
+one the new end would leave out, the cell keeps its end, and the transit shortens the next first
+line alone.
 
 Anchors (:attr:`~eaplan_drake.flight.stages.Stage.anchor`; + 0.5 on the second half of a split
 arc): on a cell (c1 of the cell, its place k in the visiting order, o + 4 e + 20 x, the leg's
-place in the cell) with o the orientation, e the index of the first line's cut and x that of the
-last line's cut; on the approach (c1, the piece, e, −1); on a transit (c1 of the next cell, the
-transit's start x, y [m], −2 − 2(s + 2(m + :data:`PIECES` (o + 4 (e + 5 k))))) for piece m into
-the cell at place k, heading ±u(θ) (s = 0, 1).
+place in the cell) with o the orientation, e the index in ``ENTRY_CUTS`` of the first line's
+cut and x = (the last line's cut) + 5 (the lines left out at the end); on the approach (c1, the
+piece, e, −1); on a transit (c1 of the next cell, the transit's start x, y [m],
+−2 − 2(s + 2(m + :data:`PIECES` (o + 4 (e + 5 k))))) for piece m into the cell at place k,
+heading ±u(θ) (s = 0, 1).
 
 Lengths in m, c1 in m².
 """
@@ -102,7 +108,7 @@ class AvoidingStages:
 
     def _Index(self, s: float) -> int:
         """The index in :data:`ENTRY_CUTS` of the cut s [m]."""
-        return int(round(2.0 * s / self.r_min))
+        return int(np.argmin([abs(s - k * self.r_min) for k in ENTRY_CUTS]))
 
     def _SideOf(self, line) -> int:
         return 0 if (line[1] - line[0]) @ self._Heading(0) > 0.0 else 1
@@ -113,13 +119,14 @@ class AvoidingStages:
             raise AirspaceError(f"{KEY}: at c1 = {c1:g} m² the first cell keeps no line clear")
         return code
 
-    def _Approach(self, c1: float, code: int, e: int):
-        """The approach pieces onto the first cell's first line (cut by e) at c1."""
-        first = self._Cut(0, c1, code, e, 0)[0]
-        legs = AvoidingTransit(
-            self.start, self.heading, first[0], first[1] - first[0], self.r_min, self.no_fly
+    def _Around(self, position, heading, place: int, c1: float, code: int, e: int) -> list:
+        """The transit pieces from ``position`` [m] along ``heading`` onto the first line (cut
+        by e) of the cell at ``place`` at c1 in orientation ``code`` (:func:`AvoidingTransit`:
+        the transit :func:`EntryInto` found)."""
+        first = self._Cut(place, c1, code, e, 0)[0]
+        return AvoidingTransit(
+            position, heading, first[0], first[1] - first[0], self.r_min, self.no_fly
         )
-        return legs
 
     def _Chain(self, place: int, c1_k: float, code: int, e: int, c1: float, x=None) -> list:
         """[place, c1, orientation, e, x, lines, transit into it, its start, s] of the cell at
@@ -232,21 +239,13 @@ class AvoidingStages:
         first = index - (1 if j != math.floor(j) else 0)  # the index of the leg's first stage
         if -1.0 <= j < 0.0:  # an approach piece: the rest of it, then the first cell at c1_a
             k, code, e = 0, self._FirstCode(c1_a), int(round(a2))
-            pieces = self._Approach(c1_a, code, e)
+            pieces = self._Around(self.start, self.heading, 0, c1_a, code, e)
             stages = self._ApproachPieceStages(c1_a, pieces, e, int(round(a1)), first)
             cells = self._Chain(0, c1_a, code, e, c1)
             leg, at = 0, None
         elif j < -1.0:  # a transit piece into the cell at place k: the rest, then the cell
             k, m, side, code, e = self._Decode(j)
-            seq = self._Cut(k, c1_a, code, e, 0)
-            pieces = AvoidingTransit(
-                np.array([a1, a2]),
-                self._Heading(side),
-                seq[0][0],
-                seq[0][1] - seq[0][0],
-                self.r_min,
-                self.no_fly,
-            )
+            pieces = self._Around((a1, a2), self._Heading(side), k, c1_a, code, e)
             key = code + 4 * (e + _CUTS * k)
             stages = self._TransitStages(key, c1_a, (a1, a2), side, pieces, first, m)
             cells = self._Chain(k, c1_a, code, e, c1)
@@ -282,16 +281,7 @@ class AvoidingStages:
             return None
         if j < -1.0:
             k, m, side, code, e = self._Decode(j)
-            seq = self._Cut(k, c1_a, code, e, 0)
-            pieces = AvoidingTransit(
-                np.array([a1, a2]),
-                self._Heading(side),
-                seq[0][0],
-                seq[0][1] - seq[0][0],
-                self.r_min,
-                self.no_fly,
-            )
-            return pieces[m]
+            return self._Around((a1, a2), self._Heading(side), k, c1_a, code, e)[m]
         packed = int(round(a2))
         code, e, x = packed % 4, (packed // 4) % _CUTS, packed // (4 * _CUTS)
         seq = self._Cut(int(round(a1)), c1_a, code, e, x)
