@@ -108,7 +108,7 @@ class FieldCoverage(PlanSource):
             (:func:`~eaplan_drake.field.plan.MakeFieldPlan`).
         no_fly: no-fly polygons [m] the pre-flight plan keeps out of (its cells are the field's
             minus them); the stages keep out of them in
-            :class:`~eaplan_drake.field.nofly_source.AvoidingFieldCoverage`.
+            :class:`AvoidingFieldCoverage`.
     """
 
     def __init__(
