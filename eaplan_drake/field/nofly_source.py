@@ -8,7 +8,8 @@ fixes the cells and the order they are visited in. At a path parameter c1 each c
 x_d(c1) are shortened where their turns would enter the holes buffered by c, in each orientation
 0–3 (:func:`~eaplan_drake.field.nofly.ClearCellLines`). The first cell is flown in its first
 orientation that keeps a line (as the pre-flight route), after the *approach* from
-``vehicle.initial_position`` along ψ(0); every later cell in the orientation whose transit from
+``vehicle.initial_position`` along ψ(0) (if none onto it keeps out, in the orientation of the
+shortest approach that does); every later cell in the orientation whose transit from
 the previous cell's last line is shortest (:func:`~eaplan_drake.field.nofly.NextCell`): the
 Dubins path when it keeps out, else the visibility path around the holes flown through its
 corners (straight pieces and arcs, each a stage,
@@ -16,10 +17,10 @@ corners (straight pieces and arcs, each a stage,
 the first line's start are shortened by s r_min (s of :data:`~eaplan_drake.field.nofly.ENTRY_CUTS`,
 :func:`~eaplan_drake.field.nofly.EntryInto`; the approach shortens the first line only), and
 where that fails too the last line is left out, as in the pre-flight route
-(:func:`~eaplan_drake.field.nofly.AvoidingLegs`). Where no transit keeps out the plan is refused
-in one line naming ``coverage.no_fly_holes`` (checked before the flight at c̲1, the initial c1
-and c̄1). Pieces shorter than 4 ε are left out as in
-:class:`~eaplan_drake.field.source.FieldCoverage`.
+(:func:`~eaplan_drake.field.nofly.AvoidingLegs`). Where no transit keeps out the plan is
+refused in one line naming ``coverage.no_fly_holes``, checked before the flight at c̲1, the
+initial c1 and c̄1; at another c1 (or after a re-plan) a cell that no transit reaches is left
+out. Pieces shorter than 4 ε are left out as in :class:`~eaplan_drake.field.source.FieldCoverage`.
 
 A re-plan regenerates the later cells at the new c1, and with them the end of the current cell
 (its last line's cut, the lines left out); only when the line being flown is its last line, or
@@ -30,7 +31,7 @@ Anchors (:attr:`~eaplan_drake.flight.stages.Stage.anchor`; + 0.5 on the second h
 arc): on a cell (c1 of the cell, its place k in the visiting order, o + 4 e + 20 x, the leg's
 place in the cell) with o the orientation, e the index in ``ENTRY_CUTS`` of the first line's
 cut and x = (the last line's cut) + 5 (the lines left out at the end); on the approach (c1, the
-piece, e, −1); on a transit (c1 of the next cell, the transit's start x, y [m],
+piece, o + 4 e, −1); on a transit (c1 of the next cell, the transit's start x, y [m],
 −2 − 2(s + 2(m + :data:`PIECES` (o + 4 (e + 5 k))))) for piece m into the cell at place k,
 heading ±u(θ) (s = 0, 1).
 
@@ -74,7 +75,8 @@ class AvoidingStages:
         super().__init__(field, coverage, no_fly=field.holes, **kwargs)
         self.shortest = max(self.min_leg, 1.0)
         for c1 in dict.fromkeys((*self.c1_bounds, self.initial_c1)):
-            self.Stages(c1)
+            code, e, _ = self._Approach(c1)
+            self._Chain(0, c1, code, e, c1, strict=True)
 
     @property
     def no_fly(self):
@@ -128,13 +130,15 @@ class AvoidingStages:
             position, heading, first[0], first[1] - first[0], self.r_min, self.no_fly
         )
 
-    def _Chain(self, place: int, c1_k: float, code: int, e: int, c1: float, x=None) -> list:
+    def _Chain(
+        self, place: int, c1_k: float, code: int, e: int, c1: float, x=None, strict=False
+    ) -> list:
         """[place, c1, orientation, e, x, lines, transit into it, its start, s] of the cell at
         ``place`` (at ``c1_k``, orientation ``code``, first line cut by ``e``) and of each later
         cell at c1, entered from the last line before it (:func:`NextCell`); where no transit
         keeps out the last line before it is left out, as the pre-flight route does, while one
-        is left. With ``x`` the first cell keeps its end (:meth:`_Cut`: its last line is being
-        flown)."""
+        is left, and else the cell is left out (``strict``: AirspaceError). With ``x`` the first
+        cell keeps its end (:meth:`_Cut`: its last line is being flown)."""
         cells = [[place, c1_k, code, e, 0, self._Cut(place, c1_k, code, e, 0), None, None, 0]]
         if x is not None:
             cells[0][4:6] = [x, self._Cut(place, c1_k, code, e, x)]
@@ -159,15 +163,17 @@ class AvoidingStages:
                     "transit",
                     heading=self._Heading(side),
                 )
-                if best is not None:
+                if best is not None or fixed or len(seq) == 1:
                     break
-                if fixed or len(seq) == 1:
-                    raise AirspaceError(
-                        f"{KEY}: at c1 = {c1:g} m² no transit around the no-fly polygons "
-                        f"reaches cell {self.cell_order[k]} (their clearance and the turning "
-                        "radius leave no way: leave them out or split the field)"
-                    )
                 drop += 1
+            if best is None and strict:
+                raise AirspaceError(
+                    f"{KEY}: at c1 = {c1:g} m² no transit around the no-fly polygons reaches "
+                    f"cell {self.cell_order[k]} (their clearance and the turning radius leave no "
+                    "way: leave them out, split the field or narrow planner.path_parameter_bounds)"
+                )
+            if best is None:  # no transit reaches the cell at this c1: it is left out
+                continue
             _, _, code_k, (transit, end, first, s) = best
             if not fixed:
                 prev[4:6] = [self._Index(s) + _CUTS * drop, [*seq[:-1], end]]
@@ -201,36 +207,53 @@ class AvoidingStages:
             index = stages[-1].index + 1
         return stages
 
-    def _ApproachPieceStages(self, c1, pieces, e: int, first: int, index: int) -> list[Stage]:
+    def _ApproachPieceStages(self, c1, pieces, key: int, first: int, index: int) -> list[Stage]:
+        """The stages of the approach ``pieces`` from piece ``first`` on; ``key`` = o + 4 e."""
         kept = [m for m, leg in enumerate(pieces) if leg.length >= self.min_leg]
         kept = kept or [len(pieces) - 1]  # at least one stage: onto the first line
         stages: list[Stage] = []
         for m in kept:
             if m < first:
                 continue
-            anchor = (c1, float(m), float(e), -1.0)
+            anchor = (c1, float(m), float(key), -1.0)
             stages += self._LegStages(pieces[m], index, APPROACH, c1, anchor)
             index = stages[-1].index + 1
         return stages
 
-    def _Stages(self, c1: float) -> tuple[Stage, ...]:
+    def _Approach(self, c1: float):
+        """(orientation, e, pieces) of the approach onto the first cell at c1: in its first
+        orientation that keeps a line (the pre-flight route's) if a transit from the start
+        keeps out, else in the orientation of the shortest that does (:func:`NextCell`)."""
         code = self._FirstCode(c1)
+        seq = self._Seq(0, c1, code)
         entry = EntryInto(
-            None,
-            self.start,
-            self.heading,
-            self._Seq(0, c1, code),
-            self.r_min,
-            self.no_fly,
-            self.shortest,
+            None, self.start, self.heading, seq, self.r_min, self.no_fly, self.shortest
         )
         if entry is None:
-            raise AirspaceError(
-                f"{KEY}: no approach from vehicle.initial_position to the first line keeps out "
-                "of the no-fly polygons"
+            best = NextCell(
+                {0: self._Lines(0, c1)},
+                TurnJump(self.Spacing(c1), self.r_min),
+                [0],
+                lambda i, c: self._Seq(i, c1, c),
+                None,
+                self.start,
+                self.r_min,
+                self.no_fly,
+                self.shortest,
+                "transit",
+                heading=self.heading,
             )
-        e = self._Index(entry[3])
-        approach = self._ApproachPieceStages(c1, entry[0], e, 0, 0)
+            if best is None:
+                raise AirspaceError(
+                    f"{KEY}: no approach from vehicle.initial_position to the first cell keeps "
+                    "out of the no-fly polygons"
+                )
+            _, _, code, entry = best
+        return code, self._Index(entry[3]), entry[0]
+
+    def _Stages(self, c1: float) -> tuple[Stage, ...]:
+        code, e, pieces = self._Approach(c1)
+        approach = self._ApproachPieceStages(c1, pieces, code + 4 * e, 0, 0)
         cells = self._Chain(0, c1, code, e, c1)
         return (*approach, *self._Emit(cells, len(approach)))
 
@@ -238,9 +261,9 @@ class AvoidingStages:
         c1_a, a1, a2, j = anchor
         first = index - (1 if j != math.floor(j) else 0)  # the index of the leg's first stage
         if -1.0 <= j < 0.0:  # an approach piece: the rest of it, then the first cell at c1_a
-            k, code, e = 0, self._FirstCode(c1_a), int(round(a2))
+            k, code, e = 0, int(round(a2)) % 4, int(round(a2)) // 4
             pieces = self._Around(self.start, self.heading, 0, c1_a, code, e)
-            stages = self._ApproachPieceStages(c1_a, pieces, e, int(round(a1)), first)
+            stages = self._ApproachPieceStages(c1_a, pieces, code + 4 * e, int(round(a1)), first)
             cells = self._Chain(0, c1_a, code, e, c1)
             leg, at = 0, None
         elif j < -1.0:  # a transit piece into the cell at place k: the rest, then the cell
