@@ -8,10 +8,10 @@ another version, e.g. ``git worktree add ../base <commit>``), saves every logged
 summary, and compares them with ``numpy.array_equal(..., equal_nan=True)``; summary fields that
 measure the machine (wall and solve times) are left out. Prints one line per flight and exits
 non-zero if any differs. The default flights: the four reference flights, the compare flights
-with the default planner, a greedy flight in wind and the shipped survey; ``--certify-worlds N``
-adds the default policy's flights on the first N worlds that ``eaplan-drake certify survey`` draws
-(faults, noise, dropouts and wind: they exercise the risk reserve's every branch), with
-``--certify-set`` assignments on their scenario if given.
+with the default planner, a greedy flight in wind, the shipped survey and the shipped field
+(``funen``); ``--certify-worlds N`` adds the default policy's flights on the first N worlds that
+``eaplan-drake certify survey`` draws (faults, noise, dropouts and wind: they exercise the risk
+reserve's every branch), with ``--certify-set`` assignments on their scenario if given.
 """
 
 import argparse

@@ -203,9 +203,8 @@ def MakeAirspace(
     for i, zone in enumerate(zones):
         if zone.intersects(shapely.LineString(RoutePoints(route))):
             raise AirspaceError(
-                f"no-fly polygon {i}: the route crosses it (coverage.no_fly_holes: the plan "
-                "command routes around the holes, a simulated flight does not: leave it out or "
-                "split the field)"
+                f"no-fly polygon {i}: the route crosses it (a route planned with "
+                "coverage.no_fly_holes: true keeps out of the field's holes)"
             )
     return Airspace(polygon, zones, float(margin), required)
 

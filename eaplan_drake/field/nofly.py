@@ -39,10 +39,12 @@ from eaplan_drake.field.route import Leg, TransitLegs, TurnLegs, _Ordered
 
 __all__ = [
     "CLEARANCE",
+    "ENTRY_CUTS",
     "LOST_LINE_WEIGHT",
     "AvoidingLegs",
     "AvoidingTransit",
     "ClearCellLines",
+    "EntryInto",
     "Hits",
     "LostLineLength",
     "MakeAvoidingRoute",
@@ -50,6 +52,7 @@ __all__ = [
     "NoFly",
     "NoFlyLines",
     "NoFlySummary",
+    "NextCell",
     "PlanRoute",
     "SurveyPolygon",
     "SwathCoverage",
@@ -62,6 +65,10 @@ CLEARANCE = 10.0
 :data:`~eaplan_drake.field.airspace.TRACKING_ALLOWANCE`)."""
 
 KEY = "coverage.no_fly_holes"
+
+ENTRY_CUTS = (0.0, 0.5, 1.0, 1.5, 2.0)
+"""By how many r_min a transit into a cell may shorten the last line's end and the first line's
+start (:func:`EntryInto`) [-]."""
 
 LOST_LINE_WEIGHT = 10.0
 """How many metres flown a metre of survey line left out near a no-fly polygon counts as when
@@ -302,12 +309,14 @@ def _Shorten(line, start: float, end: float, shortest: float):
     return _Cut(line, (start, end))
 
 
-def _Entry(last, position, heading, seq, r_min, no_fly, shortest):
-    """(transit legs, the previous cell's last line, the cell's lines) from ``position`` along
-    ``heading`` (the end of line ``last``, or the start: ``last`` None) onto ``seq``: the last
-    line's end and the first line's start shortened by s = 0, ½, 1, 3/2, 2 r_min until a transit
-    keeps out (:func:`AvoidingTransit`); None when none does."""
-    for s in (0.0, 0.5 * r_min, r_min, 1.5 * r_min, 2.0 * r_min):
+def EntryInto(last, position, heading, seq, r_min: float, no_fly: NoFly, shortest: float):
+    """(transit legs, the previous cell's last line, the cell's lines, s [m]) from ``position``
+    [m] along ``heading`` (the end of line ``last``, or, ``last`` None, a point whose end is
+    kept) onto a cell's lines ``seq`` in flight order: the last line's end and the first line's
+    start shortened by s = :data:`ENTRY_CUTS` × r_min, the first that lets a transit keep out
+    (:func:`AvoidingTransit`); None when none does or a line would get shorter than
+    ``shortest`` [m]."""
+    for s in (k * r_min for k in ENTRY_CUTS):
         first = _Shorten(seq[0], s, 0.0, shortest)
         end = last if last is None else _Shorten(last, 0.0, s, shortest)
         if first is None or (last is not None and end is None):
@@ -316,7 +325,7 @@ def _Entry(last, position, heading, seq, r_min, no_fly, shortest):
         h0 = (first[1] - first[0]) if heading is None else heading
         legs = AvoidingTransit(p0, h0, first[0], first[1] - first[0], r_min, no_fly)
         if legs is not None:
-            return legs, end, [first, *seq[1:]]
+            return legs, end, [first, *seq[1:]], s
     return None
 
 
@@ -325,12 +334,17 @@ def _LineLeg(line, cell: int) -> Leg:
     return Leg("line", a, b, float(np.linalg.norm(line[1] - line[0])), cell=cell)
 
 
-def _NextCell(cell_lines, jump, todo, Seq, last, position, r_min, no_fly, shortest, order_by):
-    """(cost, cell, ``_Entry``) of the next cell from ``position`` [m] (the end of line
-    ``last``, or the start), or None when no transit reaches any of ``todo``: candidates
-    (cell, orientation) by the distance to the start of their uncut lines; the first that has
-    an entry (``order_by="distance"``), or the shortest entry."""
-    heading = None if last is None else last[1] - last[0]
+def NextCell(
+    cell_lines, jump, todo, Seq, last, position, r_min, no_fly, shortest, order_by, heading=None
+):
+    """(cost, cell, orientation, :func:`EntryInto`) of the next cell from ``position`` [m] (the
+    end of line ``last``, or the start) travelling along ``heading`` (default: ``last``'s
+    direction), or None when no transit reaches any of ``todo``: candidates (cell, orientation
+    0–3, ``Seq(cell, orientation)`` their lines by :func:`ClearCellLines`) by the distance to the
+    start of their uncut lines ``cell_lines[cell]``; the first that has an entry
+    (``order_by="distance"``), or the shortest entry."""
+    if heading is None and last is not None:
+        heading = last[1] - last[0]
 
     def Rough(c):
         seq = _Ordered(cell_lines[c[0]], jump, bool(c[1] // 2), bool(c[1] % 2))
@@ -339,12 +353,12 @@ def _NextCell(cell_lines, jump, todo, Seq, last, position, r_min, no_fly, shorte
     best = None
     for i, code in sorted(((i, c) for i in todo for c in range(4)), key=Rough):
         seq = Seq(i, code)
-        entry = _Entry(last, position, heading, seq, r_min, no_fly, shortest) if seq else None
+        entry = EntryInto(last, position, heading, seq, r_min, no_fly, shortest) if seq else None
         if entry is None:
             continue
         cost = Rough((i, code)) if order_by == "distance" else sum(g.length for g in entry[0])
         if best is None or cost < best[0]:
-            best = (cost, i, entry)
+            best = (cost, i, code, entry)
         if order_by == "distance":
             break
     return best
@@ -374,7 +388,7 @@ def AvoidingLegs(
     """The legs of :func:`~eaplan_drake.field.route.MakeRoute` that keep out of ``no_fly``'s
     zone: each cell's lines by :func:`ClearCellLines`, the next cell and its orientation those
     of the shortest transit that keeps out (``order_by="transit"``) or of the nearest start that
-    has one (``"distance"``), entered by ``_Entry``. Raises
+    has one (``"distance"``), entered by :func:`EntryInto`. Raises
     :class:`~eaplan_drake.field.airspace.AirspaceError` naming ``coverage.no_fly_holes`` when
     no cell left can be reached."""
     from eaplan_drake.field.route import CellLegs
@@ -402,7 +416,7 @@ def AvoidingLegs(
         last = None
         if legs and legs[-1].kind == "line":
             last = np.array([legs[-1].start, legs[-1].end])
-        best = _NextCell(
+        best = NextCell(
             cell_lines, jump, todo, Seq, last, position, r_min, no_fly, shortest, order_by
         )
         if best is None:
@@ -417,7 +431,7 @@ def AvoidingLegs(
                 )
             position = np.asarray(legs[-1].end) if legs else start
             continue
-        _, i, (transit, end, seq) = best
+        _, i, _, (transit, end, seq, _) = best
         todo.remove(i)
         if last is not None:
             legs[-1] = _LineLeg(end, legs[-1].cell)

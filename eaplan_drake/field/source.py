@@ -47,6 +47,7 @@ import math
 import numpy as np
 
 from eaplan_drake.field.geodesy import Require
+from eaplan_drake.field.nofly_source import AvoidingStages
 from eaplan_drake.field.plan import LineSpacing, MakeFieldPlan
 from eaplan_drake.field.route import (
     CellLegs,
@@ -62,7 +63,13 @@ from eaplan_drake.flight.stages import APPROACH, NUM_PRIMITIVES, MakeStage, Stag
 from eaplan_drake.packaged import PACKAGED_FIELDS, PackagedPath
 from eaplan_drake.params import MAX_SURVEY_LINES
 
-__all__ = ["CONTINUED", "FieldCoverage", "FieldPath", "MakeFieldPlanSource"]
+__all__ = [
+    "CONTINUED",
+    "AvoidingFieldCoverage",
+    "FieldCoverage",
+    "FieldPath",
+    "MakeFieldPlanSource",
+]
 
 CONTINUED = NUM_PRIMITIVES
 """Primitive of a stage that continues a turn (an Ω turn's later arcs, a split arc's second
@@ -99,6 +106,9 @@ class FieldCoverage(PlanSource):
         initial_heading_deg: ψ(0) [deg from east, counter-clockwise] at ``start``.
         cells: ``best``, ``convex`` or ``monotone``
             (:func:`~eaplan_drake.field.plan.MakeFieldPlan`).
+        no_fly: no-fly polygons [m] the pre-flight plan keeps out of (its cells are the field's
+            minus them); the stages keep out of them in
+            :class:`AvoidingFieldCoverage`.
     """
 
     def __init__(
@@ -113,6 +123,7 @@ class FieldCoverage(PlanSource):
         c1_bounds,
         initial_heading_deg: float = 0.0,
         cells: str = "best",
+        no_fly=(),
     ):
         self.field = field
         self.r = float(coverage.turning_radius)
@@ -130,7 +141,12 @@ class FieldCoverage(PlanSource):
                 f"r_min² − r² = {self.r_min**2 - self.r**2:g}"
             )
         plan = MakeFieldPlan(
-            field, LineSpacing(coverage, lo), self.r_min, cells=cells, min_line_length=self.min_leg
+            field,
+            LineSpacing(coverage, lo),
+            self.r_min,
+            cells=cells,
+            min_line_length=self.min_leg,
+            no_fly=no_fly,
         )
         self.plan = plan
         self.decomposition = plan.choice.decomposition
@@ -228,11 +244,15 @@ class FieldCoverage(PlanSource):
         for m in range(first, len(pieces)):
             if pieces[m].length < self.min_leg:
                 continue
-            tag = -2.0 - 2.0 * (8 * k + 2 * m + s)
-            anchor = (c1, float(position[0]), float(position[1]), tag)
+            anchor = (c1, float(position[0]), float(position[1]), self._Tag(k, m, s))
             stages += self._LegStages(pieces[m], index, APPROACH, c1, anchor)
             index = stages[-1].index + 1
         return stages
+
+    def _Tag(self, k: int, m: int, s: int) -> float:
+        """The transit anchor's tag of piece m into the cell at place k, along
+        :meth:`_Heading` (s) (module docstring)."""
+        return -2.0 - 2.0 * (8 * k + 2 * m + s)
 
     def _Cells(self, place: int, c1: float, position, s: int, index: int) -> list[Stage]:
         """The stages of the cells from ``place`` on at c1, each after its transit from
@@ -361,6 +381,11 @@ class FieldCoverage(PlanSource):
         )
 
 
+class AvoidingFieldCoverage(AvoidingStages, FieldCoverage):
+    """:class:`FieldCoverage` whose stages keep out of the field's holes at every c1
+    (``coverage.no_fly_holes: true``, :mod:`eaplan_drake.field.nofly_source`)."""
+
+
 def _CheckFieldSize(field, coverage, c1_bounds) -> None:
     """ValueError before any stage is built when the field needs more than
     :data:`~eaplan_drake.params.MAX_SURVEY_LINES` lines at the narrowest line spacing of
@@ -385,17 +410,19 @@ def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
     file, or a packaged field's name, :func:`FieldPath`, read in the local frame of its first
     vertex, :func:`~eaplan_drake.field.readers.ReadField`; c1 over
     ``planner.path_parameter_bounds``), flown from ``vehicle.initial_position`` at
-    ``vehicle.airspeed`` with the field gain ``guidance.k_e``, starting with ``initial_c1`` [m²].
+    ``vehicle.airspeed`` with the field gain ``guidance.k_e``, starting with ``initial_c1`` [m²];
+    with ``coverage.no_fly_holes: true`` around the field's holes (:class:`AvoidingFieldCoverage`).
     Needs the ``[field]`` extra. Raises ValueError (or OSError for the file), also when a given
-    ``coverage.airspace_margin`` is too small for the lowest plan's route or the route crosses
-    a no-fly hole (:func:`~eaplan_drake.field.airspace.MakeAirspace`)."""
+    ``coverage.airspace_margin`` is too small for the lowest plan's route
+    (:func:`~eaplan_drake.field.airspace.MakeAirspace`) or no route keeps out of the holes."""
     from eaplan_drake.field.readers import ReadField
 
     coverage = scenario.coverage
     index = None if coverage.field_polygon < 0 else int(coverage.field_polygon)
     field = ReadField(FieldPath(coverage.field), index=index)
     _CheckFieldSize(field, coverage, scenario.planner.path_parameter_bounds)
-    source = FieldCoverage(
+    avoid = coverage.no_fly_holes and len(field.holes) > 0
+    source = (AvoidingFieldCoverage if avoid else FieldCoverage)(
         field,
         coverage,
         start=scenario.vehicle.initial_position,

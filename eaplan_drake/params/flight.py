@@ -259,8 +259,9 @@ class CoverageParams(_Params):
     geofence; < 0 (default): the smallest that works, derived from the turning radius, the line
     spacing and the wind (:mod:`eaplan_drake.field.airspace`). A smaller value is refused."""
     no_fly_holes: bool = False
-    """The ``field``'s holes are no-fly zones (exclusion geofences) instead of areas that are not
-    surveyed but may be overflown (default)."""
+    """The ``field``'s holes are no-fly zones (exclusion geofences) that the planned route and the
+    simulated flight keep 10 m clear of, instead of areas that are not surveyed but may be
+    overflown (default)."""
     mission_end: str = "rtl"
     """How a ``field`` survey's missions end: ``rtl`` (return to launch) or ``land`` (an approach
     and a landing at home)."""
