@@ -136,3 +136,29 @@ def test_no_way_around_the_hole_is_one_line_naming_the_key(tmp_path):
     with pytest.raises(ScenarioError, match=r"coverage\.no_fly_holes: no approach") as e:
         ResolveScenario(scenario)
     assert "\n" not in str(e.value)
+
+
+def test_every_c1_of_the_planners_grid_is_checked_before_the_flight():
+    """The grid policies choose c1 on the planner's grid: each of its values is checked before
+    the flight (strictly: a cell no transit reaches there is refused, never left out)."""
+
+    class Recording(AvoidingFieldCoverage):
+        def _Chain(self, *args, strict=False, **kwargs):
+            if strict:
+                checked.append(args[4])
+            return super()._Chain(*args, strict=strict, **kwargs)
+
+    checked = []
+    s = Scenario()
+    grid = np.linspace(LO, HI, 5)
+    Recording(
+        Field(),
+        s.coverage,
+        start=(-150.0, -150.0),
+        airspeed=s.vehicle.airspeed,
+        initial_c1=-300.0,
+        k_e=s.guidance.k_e,
+        c1_bounds=(LO, HI),
+        checked_c1=grid,
+    )
+    assert sorted(set(checked)) == sorted({*grid.tolist(), -300.0})

@@ -19,8 +19,10 @@ the first line's start are shortened by s r_min (s of :data:`~eaplan_drake.field
 where that fails too the last line is left out, as in the pre-flight route
 (:func:`~eaplan_drake.field.nofly.AvoidingLegs`). Where no transit keeps out the plan is
 refused in one line naming ``coverage.no_fly_holes``, checked before the flight at c̲1, the
-initial c1 and c̄1; at another c1 (or after a re-plan) a cell that no transit reaches is left
-out. Pieces shorter than 4 ε are left out as in :class:`~eaplan_drake.field.source.FieldCoverage`.
+initial c1, c̄1 and every c1 of the planner's grid (the values the mpc and the other grid
+policies choose); at another c1 (the paper's policy chooses c1 off the grid) a cell that no
+transit reaches is left out. Pieces shorter than 4 ε are left out as in
+:class:`~eaplan_drake.field.source.FieldCoverage`.
 
 A re-plan regenerates the later cells at the new c1, and with them the end of the current cell
 (its last line's cut, the lines left out); only when the line being flown is its last line, or
@@ -68,13 +70,16 @@ class AvoidingStages:
     """The stages that keep out of the field's holes (module docstring), mixed into
     :class:`~eaplan_drake.field.source.FieldCoverage` as
     :class:`~eaplan_drake.field.source.AvoidingFieldCoverage` (its arguments; the legs become
-    stages by its methods). Raises :class:`~eaplan_drake.field.airspace.AirspaceError` naming
-    ``coverage.no_fly_holes`` when no route at c̲1, the initial c1 or c̄1 keeps out."""
+    stages by its methods), and ``checked_c1``: more c1 values [m²] to check before the flight
+    (the planner's grid, whose values the grid policies choose). Raises
+    :class:`~eaplan_drake.field.airspace.AirspaceError` naming ``coverage.no_fly_holes`` when no
+    route at c̲1, the initial c1, c̄1 or one of ``checked_c1`` keeps out."""
 
-    def __init__(self, field, coverage, **kwargs):
+    def __init__(self, field, coverage, checked_c1=(), **kwargs):
         super().__init__(field, coverage, no_fly=field.holes, **kwargs)
         self.shortest = max(self.min_leg, 1.0)
-        for c1 in dict.fromkeys((*self.c1_bounds, self.initial_c1)):
+        checked = (*self.c1_bounds, self.initial_c1, *(float(c) for c in checked_c1))
+        for c1 in dict.fromkeys(checked):
             code, e, _ = self._Approach(c1)
             self._Chain(0, c1, code, e, c1, strict=True)
 

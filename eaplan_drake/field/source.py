@@ -422,6 +422,7 @@ def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
     field = ReadField(FieldPath(coverage.field), index=index)
     _CheckFieldSize(field, coverage, scenario.planner.path_parameter_bounds)
     avoid = coverage.no_fly_holes and len(field.holes) > 0
+    checked = {"checked_c1": scenario.planner.PathParameterGrid()} if avoid else {}
     source = (AvoidingFieldCoverage if avoid else FieldCoverage)(
         field,
         coverage,
@@ -432,6 +433,7 @@ def MakeFieldPlanSource(scenario, initial_c1: float) -> FieldCoverage:
         c1_bounds=scenario.planner.path_parameter_bounds,
         initial_heading_deg=scenario.vehicle.initial_heading_deg,
         cells=coverage.field_cells,
+        **checked,
     )
     if coverage.airspace_margin >= 0.0 or coverage.no_fly_holes:  # refused before the flight
         from eaplan_drake.field.airspace import MakeAirspace
