@@ -28,20 +28,12 @@ def RefPoissonCutoff(mean):
     return int(k[(k > mean) & (log_bound < math.log(risk.POISSON_TAIL))][0]) - 1
 
 
-def RefPaddedBernstein(n):
-    coeffs = np.zeros((n + 1, n, n + 1))
-    log_comb = np.zeros((n + 1, n + 1))
-    for k in range(1, n + 1):
-        coeffs[k, :k, : k + 1], log_comb[k, : k + 1] = risk._Bernstein(k)
-    return coeffs, log_comb
-
-
 def RefIrwinHallCdf(count, x):
     out = np.zeros(x.shape)
     if not x.size:
         return out
     top = int(np.max(count))
-    coeffs, log_comb = RefPaddedBernstein(top)
+    coeffs, log_comb = risk._PaddedBernstein(top)
     i = np.arange(top + 1)
     piece = np.minimum(np.floor(x), count - 1).astype(int)
     t = (x - piece)[:, None]
@@ -192,16 +184,3 @@ def test_count_logarithms_are_those_of_each_range():
     table = risk._LogCounts(3000)
     for stop in range(2, 3000, 7):
         assert np.array_equal(np.log(np.arange(1, stop)), table[1:stop])
-
-
-def test_irwin_hall_level_by_level_is_the_padded_form_bit_for_bit():
-    """Each level's points on their own n + 1 terms give the values, bit for bit, of the form
-    that padded every level to the largest (the reference above)."""
-    rng = np.random.default_rng(5)
-    for _ in range(40):
-        top = int(rng.integers(1, 120))
-        count = rng.integers(1, top + 1, size=int(rng.integers(1, 600)))
-        x = rng.uniform(0.0, 1.0, count.size) * count
-        x[::11] = np.floor(x[::11])  # the ends of the pieces (t = 0)
-        new = risk._IrwinHallCdf(count, x)
-        assert [Bits(v) for v in new] == [Bits(v) for v in RefIrwinHallCdf(count, x)]

@@ -201,23 +201,31 @@ def _IrwinHallCdf(count: np.ndarray, x: np.ndarray) -> np.ndarray:
     out = np.zeros(x.shape)
     if not x.size:
         return out
-    _Bernstein(int(np.max(count)))  # the levels up to the largest count, grown once
-    # level by level: each point's n + 1 terms only (the same values and summation as one
-    # padded array of the largest level, without its n³ memory)
-    order = np.argsort(count, kind="stable")
-    levels, starts = np.unique(count[order], return_index=True)
-    ends = [*starts[1:].tolist(), count.size]
-    for level, lo, hi in zip(levels.tolist(), starts.tolist(), ends, strict=True):
-        rows = order[lo:hi]
-        coeffs, log_comb = _BERNSTEIN[level]
-        piece = np.minimum(np.floor(x[rows]), level - 1).astype(int)
-        t = (x[rows] - piece)[:, None]
-        i = np.arange(level + 1)
+    top = int(np.max(count))
+    coeffs, log_comb = _PaddedBernstein(top)
+    i = np.arange(top + 1)
+    for chunk in range(0, x.size, _IRWIN_HALL_CHUNK):
+        n = count[chunk : chunk + _IRWIN_HALL_CHUNK]
+        piece = np.minimum(np.floor(x[chunk : chunk + _IRWIN_HALL_CHUNK]), n - 1).astype(int)
+        t = (x[chunk : chunk + _IRWIN_HALL_CHUNK] - piece)[:, None]
+        column = n[:, None]
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            log_basis = log_comb + i * np.log(t) + (level - i) * np.log1p(-t)
-            basis = np.where(t == 0.0, i == 0, np.where(t == 1.0, i == level, np.exp(log_basis)))
-        out[rows] = np.add.reduce(coeffs[piece] * basis, axis=1)
+            log_basis = log_comb[n, : top + 1] + i * np.log(t) + (column - i) * np.log1p(-t)
+            basis = np.where(t == 0.0, i == 0, np.where(t == 1.0, i == column, np.exp(log_basis)))
+        terms = coeffs[n, piece, : top + 1] * np.where(i <= column, basis, 0.0)
+        part = out[chunk : chunk + _IRWIN_HALL_CHUNK]
+        # each point's sum over exactly its n + 1 terms (the same summation as an unpadded row)
+        order = np.argsort(n, kind="stable")
+        levels, starts = np.unique(n[order], return_index=True)
+        ends = [*starts[1:].tolist(), n.size]
+        for level, lo, hi in zip(levels.tolist(), starts.tolist(), ends, strict=True):
+            rows = order[lo:hi]
+            part[rows] = np.add.reduce(terms[rows, : level + 1], axis=1)
     return out
+
+
+_IRWIN_HALL_CHUNK = 4096
+"""Points :func:`_IrwinHallCdf` evaluates at once (bounds its padded arrays' memory)."""
 
 
 _BERNSTEIN_LOCK = threading.Lock()
@@ -231,6 +239,27 @@ def _Bernstein(n: int) -> tuple[np.ndarray, np.ndarray]:
     with _BERNSTEIN_LOCK:  # a Dask worker's threads may grow it at once
         _GrowBernstein(n)
     return _BERNSTEIN[n]
+
+
+_PADDED = [None]
+"""Levels 0..n of :func:`_IrwinHallCdf`'s recursion padded with zeros into arrays, the last size
+built: coefficients (n + 1, n, n + 1) and log binomials (n + 1, n + 1)."""
+
+
+def _PaddedBernstein(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Levels 0..(at least) n of :func:`_Bernstein`, stacked: ``coeffs[k, piece, i]`` and
+    ``log_comb[k, i]``, zero where i > k or piece >= k."""
+    with _BERNSTEIN_LOCK:
+        padded = _PADDED[0]
+        if padded is None or padded[1].shape[0] <= n:
+            size = 16 * -(-n // 16)  # whole multiples of 16 levels
+            _GrowBernstein(size)
+            coeffs = np.zeros((size + 1, size, size + 1))
+            log_comb = np.zeros((size + 1, size + 1))
+            for k in range(1, size + 1):
+                coeffs[k, :k, : k + 1], log_comb[k, : k + 1] = _BERNSTEIN[k]
+            padded = _PADDED[0] = (coeffs, log_comb)
+    return padded
 
 
 def _GrowBernstein(n: int) -> None:
