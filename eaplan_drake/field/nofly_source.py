@@ -56,7 +56,7 @@ from eaplan_drake.field.nofly import (
 )
 from eaplan_drake.field.route import CellLegs, CellSweepLines, TurnJump
 from eaplan_drake.flight.coverage import _Memoized
-from eaplan_drake.flight.stages import APPROACH, Stage
+from eaplan_drake.flight.stages import Stage
 
 __all__ = ["PIECES", "AvoidingStages"]
 
@@ -209,19 +209,6 @@ class AvoidingStages:
                 index = stages[-1].index + 1 if stages else index
             legs = CellLegs(seq, self.r_min, self.cell_order[k])
             stages += self._CellStages(legs, k, code + 4 * e + 4 * _CUTS * x, c1_k, index, 0)
-            index = stages[-1].index + 1
-        return stages
-
-    def _ApproachPieceStages(self, c1, pieces, key: int, first: int, index: int) -> list[Stage]:
-        """The stages of the approach ``pieces`` from piece ``first`` on; ``key`` = o + 4 e."""
-        kept = [m for m, leg in enumerate(pieces) if leg.length >= self.min_leg]
-        kept = kept or [len(pieces) - 1]  # at least one stage: onto the first line
-        stages: list[Stage] = []
-        for m in kept:
-            if m < first:
-                continue
-            anchor = (c1, float(m), float(key), -1.0)
-            stages += self._LegStages(pieces[m], index, APPROACH, c1, anchor)
             index = stages[-1].index + 1
         return stages
 

@@ -298,13 +298,18 @@ class FieldCoverage(PlanSource):
         −1) for piece m (+ 0.5 on the second half of a split arc)."""
         line = np.subtract(legs[0].end, legs[0].start)
         pieces = TransitLegs(self.start, self.heading, legs[0].start, line, self.r_min)
+        return self._ApproachPieceStages(c1, pieces, 0, first, index)
+
+    def _ApproachPieceStages(self, c1, pieces, key: int, first: int, index: int) -> list[Stage]:
+        """The stages of the approach ``pieces`` from piece ``first`` on, anchored (c1, m,
+        ``key``, −1) for piece m; a piece shorter than 4 ε is left out, but never the last."""
         kept = [m for m, leg in enumerate(pieces) if leg.length >= self.min_leg]
         kept = kept or [len(pieces) - 1]  # at least one stage: onto the first line
         stages: list[Stage] = []
         for m in kept:
             if m < first:
                 continue
-            anchor = (c1, float(m), 0.0, -1.0)
+            anchor = (c1, float(m), float(key), -1.0)
             stages += self._LegStages(pieces[m], index, APPROACH, c1, anchor)
             index = stages[-1].index + 1
         return stages
