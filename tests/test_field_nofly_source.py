@@ -22,20 +22,26 @@ from eaplan_drake.params import Scenario  # noqa: E402
 LO, HI = -1000.0, 0.0
 
 
-@pytest.fixture(scope="module")
-def avoiding():
-    field = Field()
+def Source(cls, field, initial_c1=LO, **kwargs):
+    """``cls`` (a field coverage) over ``field`` with the default scenario's coverage, from
+    (−150, −150) m, c1 over [LO, HI]."""
     s = Scenario()
-    source = AvoidingFieldCoverage(
+    return cls(
         field,
         s.coverage,
         start=(-150.0, -150.0),
         airspeed=s.vehicle.airspeed,
-        initial_c1=LO,
+        initial_c1=initial_c1,
         k_e=s.guidance.k_e,
         c1_bounds=(LO, HI),
+        **kwargs,
     )
-    return field, source
+
+
+@pytest.fixture(scope="module")
+def avoiding():
+    field = Field()
+    return field, Source(AvoidingFieldCoverage, field)
 
 
 def Closest(stages, field) -> float:
@@ -55,16 +61,7 @@ def test_the_stages_at_the_lowest_and_highest_c1_keep_out_of_the_buffered_hole(a
         for i, stage in enumerate(stages):  # the anchors continue the same plan
             assert source.StagesAfter(stage.index, stage.anchor, c1) == stages[i + 1 :], i
     # without the polygons the same field's stages overfly the hole
-    s = Scenario()
-    plain = FieldCoverage(
-        field,
-        s.coverage,
-        start=(-150.0, -150.0),
-        airspeed=s.vehicle.airspeed,
-        initial_c1=LO,
-        k_e=s.guidance.k_e,
-        c1_bounds=(LO, HI),
-    )
+    plain = Source(FieldCoverage, field)
     assert Closest(plain.Stages(HI), field) == 0.0
     # at the lowest c1 the survey lines are the pre-flight route's (which keeps out of it)
     lines = [(s.entry, s.trigger) for s in source.Stages(LO) if s.primitive in (0, 2)]
@@ -149,16 +146,6 @@ def test_every_c1_of_the_planners_grid_is_checked_before_the_flight():
             return super()._Chain(*args, strict=strict, **kwargs)
 
     checked = []
-    s = Scenario()
     grid = np.linspace(LO, HI, 5)
-    Recording(
-        Field(),
-        s.coverage,
-        start=(-150.0, -150.0),
-        airspeed=s.vehicle.airspeed,
-        initial_c1=-300.0,
-        k_e=s.guidance.k_e,
-        c1_bounds=(LO, HI),
-        checked_c1=grid,
-    )
+    Source(Recording, Field(), initial_c1=-300.0, checked_c1=grid)
     assert sorted(set(checked)) == sorted({*grid.tolist(), -300.0})
