@@ -67,7 +67,7 @@ def HealthEstimate(predicted_fall: float, observed_fall: float, prior_fall: floa
     [MIN_BATTERY_HEALTH, 1] and rounded to :data:`HEALTH_RESOLUTION`. ValueError for a negative
     ``prior_fall`` or a sum that is not finite."""
     values = (float(predicted_fall), float(observed_fall), float(prior_fall))
-    if not all(v == v and abs(v) != float("inf") for v in values):
+    if not all(math.isfinite(v) for v in values):
         raise ValueError(f"HealthEstimate: the falls must be finite numbers [-], got {values}")
     if values[2] <= 0.0:
         raise ValueError(f"prior_fall: must be > 0 [-], got {prior_fall!r}")
