@@ -149,3 +149,32 @@ def test_every_c1_of_the_planners_grid_is_checked_before_the_flight():
     grid = np.linspace(LO, HI, 5)
     Source(Recording, Field(), initial_c1=-300.0, checked_c1=grid)
     assert sorted(set(checked)) == sorted({*grid.tolist(), -300.0})
+
+
+def test_an_off_grid_c1_without_an_approach_flies_the_first_cell_at_the_checked_c1_below():
+    """A policy may choose c1 off the planner's grid (the paper's): where no approach keeps out
+    at it, the plan at that c1 is still built, its first cell at the largest checked c1 below it
+    and the later cells at c1, and it continues itself after every stage."""
+    from eaplan_drake.field.airspace import AirspaceError
+
+    off_grid = -430.0
+
+    class NoApproachAt(AvoidingFieldCoverage):  # no approach keeps out at off_grid
+        def _Approach(self, c1):
+            if c1 == off_grid:
+                raise AirspaceError("coverage.no_fly_holes: no approach (injected)")
+            return super()._Approach(c1)
+
+    field = Field()
+    grid = np.linspace(LO, HI, 5)  # -1000, -750, -500, -250, 0
+    source = Source(NoApproachAt, field, checked_c1=grid)
+    with pytest.raises(AirspaceError):  # the injected failure is real
+        source._Approach(off_grid)
+    stages = source.Stages(off_grid)
+    assert stages[0].primitive == APPROACH and stages[0].c1 == -500.0
+    survey = [s for s in stages if s.primitive != APPROACH]
+    assert survey[-1].c1 == off_grid  # the later cells at the chosen c1
+    assert Closest(stages, field) >= CLEARANCE - 0.01
+    for i, stage in enumerate(stages):
+        assert source.StagesAfter(stage.index, stage.anchor, off_grid) == stages[i + 1 :], i
+    assert source.SurveyLength(off_grid) > 0.0

@@ -21,7 +21,8 @@ where that fails too the last line is left out, as in the pre-flight route
 refused in one line naming ``coverage.no_fly_holes``, checked before the flight at c̲1, the
 initial c1, c̄1 and every c1 of the planner's grid (the values the mpc and the other grid
 policies choose); at another c1 (the paper's policy chooses c1 off the grid) a cell that no
-transit reaches is left out. Pieces shorter than 4 ε are left out as in
+transit reaches is left out, and where no approach keeps out the first cell is flown at the
+largest checked c1 below it (a flight never stops on a route it cannot build). Pieces shorter than 4 ε are left out as in
 :class:`~eaplan_drake.field.source.FieldCoverage`.
 
 A re-plan regenerates the later cells at the new c1, and with them the end of the current cell
@@ -79,7 +80,9 @@ class AvoidingStages:
         super().__init__(field, coverage, no_fly=field.holes, **kwargs)
         self.shortest = max(self.min_leg, 1.0)
         checked = (*self.c1_bounds, self.initial_c1, *(float(c) for c in checked_c1))
-        for c1 in dict.fromkeys(checked):
+        self.checked_c1 = tuple(sorted(set(checked)))
+        """The c1 values [m²] checked before the flight (ascending)."""
+        for c1 in self.checked_c1:
             code, e, _ = self._Approach(c1)
             self._Chain(0, c1, code, e, c1, strict=True)
 
@@ -243,10 +246,23 @@ class AvoidingStages:
             _, _, code, entry = best
         return code, self._Index(entry[3]), entry[0]
 
+    def _ApproachAt(self, c1: float):
+        """(c1 of the first cell [m²], orientation, e, pieces): :meth:`_Approach` at c1, or,
+        where no approach keeps out at c1 (never at a checked c1: only at one a policy chooses off
+        the planner's grid), at the largest checked c1 below it, which does: a flight never
+        stops on a route it cannot build."""
+        try:
+            return (c1, *self._Approach(c1))
+        except AirspaceError:
+            if c1 in self.checked_c1:
+                raise
+        below = max(c for c in self.checked_c1 if c <= c1)  # c̲1 is checked: never empty
+        return (below, *self._Approach(below))
+
     def _Stages(self, c1: float) -> tuple[Stage, ...]:
-        code, e, pieces = self._Approach(c1)
-        approach = self._ApproachPieceStages(c1, pieces, code + 4 * e, 0, 0)
-        cells = self._Chain(0, c1, code, e, c1)
+        c1_first, code, e, pieces = self._ApproachAt(c1)
+        approach = self._ApproachPieceStages(c1_first, pieces, code + 4 * e, 0, 0)
+        cells = self._Chain(0, c1_first, code, e, c1)
         return (*approach, *self._Emit(cells, len(approach)))
 
     def _StagesAfter(self, index: int, anchor, c1: float) -> tuple[Stage, ...]:
