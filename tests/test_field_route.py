@@ -9,7 +9,14 @@ import pytest
 shapely = pytest.importorskip("shapely")
 
 from eaplan_drake.field.decompose import Decompose  # noqa: E402
-from eaplan_drake.field.route import MakeRoute, RouteEnergy, ZamboniOrder  # noqa: E402
+from eaplan_drake.field.route import (  # noqa: E402
+    Leg,
+    MakeRoute,
+    Route,
+    RouteEnergy,
+    TurnLegs,
+    ZamboniOrder,
+)
 
 U_WITH_HOLE = shapely.Polygon(
     [(0, 0), (600, 0), (600, 500), (350, 500), (350, 250), (250, 250), (250, 500), (0, 500)],
@@ -114,3 +121,24 @@ def test_route_energy_is_power_times_time():
     assert mean == pytest.approx(energy / time, rel=1e-12)
     with pytest.raises(ValueError, match=r"airspeed: must be > 0 \[m/s\], got 0"):
         RouteEnergy(route, 0.0, (p0, p2), g)
+
+
+def test_loops_count_the_turns_of_three_arcs_not_a_long_arc_before_a_straight_piece():
+    """Route.loops counts the Ω turns (three arcs, lines closer than 2 r_min), not a turn whose
+    one arc is longer than a half circle because the next line starts behind the last one's end
+    (arc, straight piece, arc)."""
+    r_min, east, west = 70.0, np.array([1.0, 0.0]), np.array([-1.0, 0.0])
+
+    def RouteOf(next_start):
+        line = Leg("line", (-200.0, 0.0), (0.0, 0.0), 200.0, cell=0)
+        turn = TurnLegs(np.zeros(2), east, np.asarray(next_start), west, r_min, 0)
+        back = Leg("line", tuple(next_start), (next_start[0] - 200.0, 10.0), 200.0, cell=0)
+        return Route((line, *turn, back), 0.0, 10.0, r_min), turn
+
+    omega, turn = RouteOf((0.0, 10.0))  # 10 m apart, starting level: an Ω turn
+    assert [leg.radius > 0.0 for leg in turn] == [True, True, True]
+    assert omega.loops == 1 and omega.turns == 1
+    behind, turn = RouteOf((-300.0, 10.0))  # starting far behind: arc, straight, arc
+    assert [leg.radius > 0.0 for leg in turn] == [True, False, True]
+    assert max(leg.angle for leg in turn) > math.pi + 0.1  # the old count took it for a loop
+    assert behind.loops == 0 and behind.turns == 1

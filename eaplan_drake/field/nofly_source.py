@@ -22,8 +22,8 @@ refused in one line naming ``coverage.no_fly_holes``, checked before the flight 
 initial c1, c̄1 and every c1 of the planner's grid (the values the mpc and the other grid
 policies choose); at another c1 (the paper's policy chooses c1 off the grid) a cell that no
 transit reaches is left out, and where no approach keeps out the first cell is flown at the
-largest checked c1 below it (a flight never stops on a route it cannot build). Pieces shorter than 4 ε are left out as in
-:class:`~eaplan_drake.field.source.FieldCoverage`.
+largest checked c1 below it (a flight never stops on a route it cannot build). Pieces shorter
+than 4 ε are left out as in :class:`~eaplan_drake.field.source.FieldCoverage`.
 
 A re-plan regenerates the later cells at the new c1, and with them the end of the current cell
 (its last line's cut, the lines left out); only when the line being flown is its last line, or

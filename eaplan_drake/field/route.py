@@ -110,11 +110,26 @@ class Route:
             if leg.kind == "transit" and (k == 0 or legs[k - 1].kind != "transit")
         )
 
+    def TurnGroups(self) -> list[list[Leg]]:
+        """The turns between lines, each the list of its consecutive ``turn`` legs (arcs and
+        straight pieces)."""
+        groups, current = [], []
+        for leg in self.legs:
+            if leg.kind == "turn":
+                current.append(leg)
+            elif current:
+                groups.append(current)
+                current = []
+        if current:
+            groups.append(current)
+        return groups
+
     @property
     def loops(self) -> int:
-        """Turns of three arcs (between lines closer than 2 r_min): their middle arcs, longer
-        than a half circle."""
-        return sum(1 for leg in self.legs if leg.kind == "turn" and leg.angle > math.pi + 1e-9)
+        """Turns of three arcs (Ω turns, between lines closer than 2 r_min). A turn of one arc
+        longer than a half circle and a straight piece (lines whose ends are offset) is not
+        one."""
+        return sum(1 for g in self.TurnGroups() if sum(leg.radius > 0.0 for leg in g) >= 3)
 
 
 def ZamboniOrder(n: int, jump: int) -> list[int]:
