@@ -43,7 +43,7 @@ from pydrake.common.containers import namedview
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.planning.belief import SIZE_RESOLUTION
-from eaplan_drake.planning.capacity import InitialPack, ObservePack, PredictPack
+from eaplan_drake.planning.capacity import UNSET, InitialPack, ObservePack, PredictPack
 from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
 from eaplan_drake.planning.mdp import (
     SEARCH_GRID,
@@ -76,7 +76,6 @@ __all__ = [
     "MdpPolicy",
     "PaperPolicy",
     "RiskMemory",
-    "UNSET",
     "StaticPolicy",
     "StaticTakeoffPolicy",
     "MakeStaticTakeoffPolicy",
@@ -326,15 +325,12 @@ RiskMemory = namedview(
     + [f"size_{i + 1}" for i in range(LEARNT_SIZES)],
 )
 """The tail of :class:`MpcPolicy`'s memory with ``reserve: risk`` (after the warm start):
-``predicted_soc`` b̂ [-], the SoC the last step predicted for now (:data:`UNSET` before the first
+``predicted_soc`` b̂ [-], the SoC the last step predicted for now (``UNSET`` before the first
 step); ``drops``, the drops detected so far; ``anchor_end`` [s], the time at which the lowest plan
-of the state where the current budget opened ends (:data:`UNSET` until a step sets it: at the
+of the state where the current budget opened ends (``UNSET`` until a step sets it: at the
 first step, and after each drop); ``anchor_margin`` m_a [-], that plan's fault-free margin;
 ``size_1`` … the sizes of the first :data:`LEARNT_SIZES` drops [-] (b̂ − b at the drop, rounded
 up to :data:`~eaplan_drake.planning.belief.SIZE_RESOLUTION`; 0 until seen)."""
-
-UNSET = -1.0
-"""The value of a :data:`RiskMemory` entry nothing has set yet (times and SoCs are ≥ 0)."""
 
 
 class MpcPolicy(PlannerPolicy):
