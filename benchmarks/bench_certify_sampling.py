@@ -183,7 +183,7 @@ def DrawCost(worlds: int = 200) -> None:
     model = StandIn().model
     times = []
     for proposal in (None, TiltedProposal(model, 520.0, 2 * model.rate, 4.0)):
-        study = CertifyStudy("survey", worlds, proposal=proposal)
+        study = CertifyStudy("survey", worlds, proposal=proposal, changing=False)
         t0 = time.perf_counter()
         StudyFlights(study)
         times.append((time.perf_counter() - t0) / worlds)

@@ -10,9 +10,10 @@ the worlds the lowest plan completes, the rate and the mission quality (lost = 0
 ``mdp`` also the mean over all worlds of the predicted E[Q 1{complete}] against the flown quality
 (lost = 0), with the flown mean's standard error. Only the first N worlds of each file count.
 
-With ``--refine``: on the first worlds certify draws, the take-off MDP of each is solved at ε =
-``planner.risk`` on three grids, each finer than the last (N, Δm, n_T, n_Q), printing the value,
-the completion and the wall time of the constrained solve (one core).
+With ``--refine``: on the first steady worlds certify draws (``--steady-worlds``), the take-off
+MDP of each is solved at ε = ``planner.risk`` on three grids, each finer than the last (N, Δm,
+n_T, n_Q), printing the value, the completion and the wall time of the constrained solve (one
+core).
 """
 
 import argparse
@@ -92,7 +93,7 @@ def TakeoffMdps(worlds: int):
 
     policies.MdpPolicy.Plan = Catch
     try:
-        for keys, scenario in StudyFlights(CertifyStudy("survey", worlds)):
+        for keys, scenario in StudyFlights(CertifyStudy("survey", worlds, changing=False)):
             if keys["policy"] == "lowest":
                 continue
             scenario.planner.policy = "mdp"

@@ -3,7 +3,7 @@ lowest value, per flight on the first worlds ``eaplan-drake certify`` draws (the
 at the ``fast`` rates), with each flight's status, mission quality and the drops that fell inside
 it. Not a test.
 
-    python3 benchmarks/bench_plan_changes.py [--worlds 24] [--set KEY=VALUE ...]
+    python3 benchmarks/bench_plan_changes.py [--worlds 24] [--steady-worlds] [--set KEY=VALUE ...]
 
 A reversal is a change of c1 in the direction opposite to the previous change; a c2 dip is a
 stretch at the lowest value of c2's first parameter (the value it flies during the warm-up) after
@@ -42,6 +42,11 @@ def main() -> None:
     parser.add_argument("--scenario", default="survey")
     parser.add_argument("--worlds", type=int, default=24)
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument(
+        "--steady-worlds",
+        action="store_true",
+        help="certify's steady worlds (constant wind, nominal pack) instead of its default ones",
+    )
     args = parser.parse_args()
     overrides = [OverrideFromAssignment(a) for a in args.set]
     rows = []
@@ -49,7 +54,9 @@ def main() -> None:
         "| world | status | quality | drops | c1 changes | c1 reversals | c2 dips | c2 lowest [s] |"
     )
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    for keys, scenario in StudyFlights(CertifyStudy(args.scenario, args.worlds)):
+    for keys, scenario in StudyFlights(
+        CertifyStudy(args.scenario, args.worlds, changing=not args.steady_worlds)
+    ):
         if keys["policy"] == "lowest":
             continue
         log = Simulate(LayerScenario(scenario, overrides))

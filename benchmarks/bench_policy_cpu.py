@@ -13,8 +13,8 @@ The flights run with one BLAS thread, as ``eaplan-drake`` and a study's workers 
 products keep a second thread spinning, which the process clock counts (a learning flight then
 costs about twice its single-thread CPU for ~10 % less wall time).
 
-    python3 benchmarks/bench_policy_cpu.py [--worlds 6] [--repeat 3] [--config risk=]
-        [--config fixed=planner.reserve=fixed]
+    python3 benchmarks/bench_policy_cpu.py [--worlds 6] [--repeat 3] [--steady-worlds]
+        [--config risk=] [--config fixed=planner.reserve=fixed]
 
 A configuration is ``NAME=KEY=VALUE[,KEY=VALUE…]`` (empty: the scenario as it is).
 """
@@ -46,12 +46,19 @@ def main() -> None:
     parser.add_argument("--worlds", type=int, default=6)
     parser.add_argument("--repeat", type=int, default=3, help="flights of each pair (least kept)")
     parser.add_argument("--config", action="append", default=None, metavar="NAME=SETTINGS")
+    parser.add_argument(
+        "--steady-worlds",
+        action="store_true",
+        help="certify's steady worlds (constant wind, nominal pack) instead of its default ones",
+    )
     args = parser.parse_args()
     configs = []
     for text in args.config or DEFAULT_CONFIGS:
         name, _, settings = text.partition("=")
         configs.append((name, [s for s in settings.split(",") if s]))
-    flights = StudyFlights(CertifyStudy(args.scenario, args.worlds))
+    flights = StudyFlights(
+        CertifyStudy(args.scenario, args.worlds, changing=not args.steady_worlds)
+    )
     worlds = {}
     for keys, scenario in flights:
         worlds.setdefault(keys["world"], {})[keys["policy"]] = scenario

@@ -27,13 +27,15 @@ from count_instructions import Instructions
 HERE = Path(__file__).resolve().parent
 
 CHILD = """
-import json, sys
+import inspect, json, sys
 from eaplan_drake.loading import LayerScenario, OverrideFromAssignment
 from eaplan_drake.simulation import Simulate
 from eaplan_drake.studies.certify import CertifyStudy
 from eaplan_drake.studies.sweep import StudyFlights
 world, mode, settings = int(sys.argv[1]), sys.argv[2], json.loads(sys.argv[3])
-flights = StudyFlights(CertifyStudy("survey", world + 1))
+# certify's steady worlds (a tree from before they were certify's default takes no keyword)
+steady = {"changing": False} if "changing" in inspect.signature(CertifyStudy).parameters else {}
+flights = StudyFlights(CertifyStudy("survey", world + 1, **steady))
 pair = {k["policy"]: s for k, s in flights if k["world"] == world}
 policy = next(s for p, s in pair.items() if p != "lowest")
 policy = LayerScenario(policy, [OverrideFromAssignment(s) for s in settings])

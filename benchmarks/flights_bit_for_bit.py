@@ -46,10 +46,13 @@ except ImportError:  # a tree from before the package layout
 from eaplan_drake.simulation import Simulate
 name, out = sys.argv[1], sys.argv[2]
 if name.startswith("certify:"):  # the policy flight of one world that certify draws
+    import inspect
     from eaplan_drake.studies.certify import CertifyStudy
     from eaplan_drake.studies.sweep import StudyFlights
+    # certify's steady worlds (a tree from before they were certify's default takes no keyword)
+    steady = {"changing": False} if "changing" in inspect.signature(CertifyStudy).parameters else {}
     scenario_name, world = name.split(":")[1], int(name.split(":")[2])
-    flights = StudyFlights(CertifyStudy(scenario_name, world + 1))
+    flights = StudyFlights(CertifyStudy(scenario_name, world + 1, **steady))
     scenario = next(s for k, s in flights if k["world"] == world and k["policy"] != "lowest")
     if json.loads(sys.argv[3]):  # --certify-set: KEY=VALUE assignments on the world's scenario
         from eaplan_drake.loading import LayerScenario, OverrideFromAssignment

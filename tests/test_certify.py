@@ -35,8 +35,11 @@ def test_faults_drawn_from_a_model_have_its_rate_and_sizes():
 
 
 def test_the_certify_study_draws_its_worlds_and_flies_lowest_and_policy():
+    from eaplan_drake.studies.certify import CHANGING_WORLD_RANGES
+
     study = CertifyStudy("plan_i", 4, overrides={"planner.policy": "mpc"})
-    assert study.uniform == CERTIFY_RANGES and study.policies == ["mpc"]
+    assert study.uniform == {**CERTIFY_RANGES, **CHANGING_WORLD_RANGES}  # changing by default
+    assert study.policies == ["mpc"]
     assert study.fault_model == FaultModelParams()  # the scenario's belief, made true
     flights = StudyFlights(study)
     assert len(flights) == 8
@@ -104,12 +107,25 @@ def test_certify_command_writes_its_report_and_resumes(tmp_path, capsys):
     assert cli_main(args) == 0
     out = capsys.readouterr().out
     assert "policy `mpc` on 2 worlds" in out
+    assert "worlds: changing in flight: Dryden gusts of σ 0–2 m/s" in out  # the default
     assert (tmp_path / "certify.md").read_text().startswith("# certify plan_ii")
+    assert "worlds: changing in flight" in (tmp_path / "certify.md").read_text()
     rows = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
     assert len(rows) == 4
     before = (tmp_path / "rows.jsonl").read_bytes()
     assert cli_main(args) == 0  # resumes: nothing left to fly, the same rows
     assert (tmp_path / "rows.jsonl").read_bytes() == before
+    steady = tmp_path / "steady"
+    assert cli_main([*args[:5], str(steady), *args[6:], "--steady-worlds"]) == 0
+    assert "worlds: steady (--steady-worlds)" in capsys.readouterr().out
+    steady_rows = [json.loads(line) for line in (steady / "rows.jsonl").read_text().splitlines()]
+    assert len(steady_rows) == 4
+    assert all("wind.gusts.sigma" in r for r in rows)  # the changing worlds' draws
+    assert not any("wind.gusts.sigma" in r for r in steady_rows)
+    with pytest.raises(SystemExit) as exit_:  # one or the other (argparse's usage error)
+        cli_main([*args, "--steady-worlds", "--changing-worlds"])
+    assert exit_.value.code == 2
+    assert "--changing-worlds: not allowed with argument --steady-worlds" in capsys.readouterr().err
 
 
 def _WeightedRows(outcomes):
@@ -291,8 +307,9 @@ def test_changing_worlds_draw_their_stated_ranges_and_keep_the_users_keys():
             lo <= min(values) and max(values) <= hi and max(values) - min(values) > 0.5 * (hi - lo)
         )
     assert {s.wind.staircase for s in flights} == {"estimated"}
-    plain = CertifyStudy("survey", 60)
-    assert not set(CHANGING_WORLD_RANGES) & set(plain.uniform)
+    steady = CertifyStudy("survey", 60, changing=False)
+    assert not set(CHANGING_WORLD_RANGES) & set(steady.uniform)
+    assert steady.uniform == CERTIFY_RANGES and "wind.staircase" not in steady.set
 
 
 def test_the_worlds_fault_model_is_apart_from_the_belief_and_rows_count_in_flight_faults():

@@ -60,6 +60,7 @@ __all__ = [
     "ProposalLine",
     "RunCertify",
     "WorldSeries",
+    "WorldsLine",
 ]
 
 MAX_WORLDS = MAX_STUDY_FLIGHTS // 2
@@ -103,7 +104,7 @@ def CertifyStudy(
     proposal: FaultProposal | None = None,
     proposal_from: int = 0,
     base: Scenario | None = None,
-    changing: bool = False,
+    changing: bool = True,
 ) -> Study:
     """The study that certifies ``scenario`` (a shipped name or a YAML path, with ``overrides``
     key path → YAML value): ``worlds`` worlds of :data:`CERTIFY_RANGES` with faults from
@@ -112,9 +113,10 @@ def CertifyStudy(
     ``proposal_from`` on draw the drops of its window from it (stratified or importance
     sampling, :mod:`eaplan_drake.studies.sampling`); world k is the same for any ``worlds``.
     ``base``: ``scenario`` with ``overrides`` already layered (a caller that has it), read for
-    the study's name, policy and fault model instead of layering them again. ``changing``: the
-    worlds change in flight (:data:`CHANGING_WORLD_RANGES`, :data:`CHANGING_WORLD_SET`; a key the
-    overrides set keeps the overrides' value)."""
+    the study's name, policy and fault model instead of layering them again. ``changing`` (the
+    default): the worlds change in flight (:data:`CHANGING_WORLD_RANGES`,
+    :data:`CHANGING_WORLD_SET`; a key the overrides set keeps the overrides' value); False: steady
+    worlds (a constant wind, the nominal pack, the payload on its table)."""
     if isinstance(worlds, bool) or not isinstance(worlds, int) or not 1 <= worlds <= MAX_WORLDS:
         raise ValueError(f"worlds: must be an integer in [1, {MAX_WORLDS}], got {worlds!r}")
     overrides = dict(overrides or {})
@@ -465,6 +467,35 @@ def WorldFaultModel(belief: FaultModelParams, assignments) -> FaultModelParams:
     return model
 
 
+def WorldsLine(changing: bool, overrides: dict | None = None) -> str:
+    """One line stating what changes in the worlds' flights (:data:`CHANGING_WORLD_RANGES`; the
+    keys of them ``overrides`` sets are named with their values, which every world keeps)."""
+    if not changing:
+        return (
+            "worlds: steady (--steady-worlds): a constant wind, the nominal pack, the payload on "
+            "its table"
+        )
+
+    def Span(key, unit=""):
+        lo, hi = CHANGING_WORLD_RANGES[key]
+        return f"±{hi:g}{unit}" if lo == -hi else f"{lo:g}–{hi:g}{unit}"
+
+    health = CHANGING_WORLD_RANGES["battery.health"]
+    return (
+        f"worlds: changing in flight: Dryden gusts of σ {Span('wind.gusts.sigma', ' m/s')}, the "
+        f"mean wind drifting by {Span('wind.drift.speed_rate', ' m/s')} and "
+        f"{Span('wind.drift.direction_rate_deg', '°')} a minute, a pack at "
+        f"{100 * health[0]:g}–{100 * health[1]:g} % of its label, a payload "
+        f"{Span('computation.power_offset', ' W')} off its table"
+        + "".join(
+            f"; {k} = {v} in every world (--set)"
+            for k, v in (overrides or {}).items()
+            if k in CHANGING_WORLD_RANGES
+        )
+        + " (--steady-worlds: none of them)"
+    )
+
+
 def BeliefLine(belief: FaultModelParams, world: FaultModelParams) -> str:
     """One line stating the worlds' fault model and the planner's belief (the same, or not)."""
 
@@ -598,7 +629,7 @@ def RunCertify(args, fly) -> int:
             proposal=proposal,
             proposal_from=args.pilot if weighted else 0,
             base=scenario,
-            changing=getattr(args, "changing_worlds", False),
+            changing=getattr(args, "changing_worlds", True),
             fault_model=world_model,
         )
 
@@ -615,6 +646,8 @@ def RunCertify(args, fly) -> int:
         ProposalLine(proposal, model, args.pilot)
         + "\n"
         + BeliefLine(scenario.planner.fault_model, model)
+        + "\n"
+        + WorldsLine(getattr(args, "changing_worlds", True), overrides)
     )
     print(line)
     anytime = weighted or args.until_decided

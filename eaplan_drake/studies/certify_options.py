@@ -66,12 +66,23 @@ def AddCertifyArguments(p) -> None:
         "a key of the fault model on a copy of the belief, repeatable, e.g. rate=0.006 "
         "size_bounds=[0.05,0.25]",
     )
-    p.add_argument(
+    worlds = p.add_mutually_exclusive_group()
+    worlds.add_argument(
         "--changing-worlds",
+        dest="changing_worlds",
         action="store_true",
-        help="worlds that change in flight: gusts, a drifting wind, a pack below its label and "
-        "a payload off its table (ranges in the docs); the staircase in the estimated wind",
+        help="worlds that change in flight (the default): gusts, a drifting wind, a pack below "
+        "its label and a payload off its table (ranges in the docs); the staircase in the "
+        "estimated wind",
     )
+    worlds.add_argument(
+        "--steady-worlds",
+        dest="changing_worlds",
+        action="store_false",
+        help="worlds that do not change in flight: a constant wind, the nominal pack, the payload "
+        "on its table (the worlds of earlier versions)",
+    )
+    p.set_defaults(changing_worlds=True)
     p.add_argument(
         "--sampling",
         choices=SAMPLING_MODES,
