@@ -214,14 +214,58 @@ def _IrwinHallCdf(count: np.ndarray, x: np.ndarray) -> np.ndarray:
             basis = np.where(t == 0.0, i == 0, np.where(t == 1.0, i == column, np.exp(log_basis)))
         terms = coeffs[n, piece, : top + 1] * np.where(i <= column, basis, 0.0)
         part = out[chunk : chunk + _IRWIN_HALL_CHUNK]
-        # each point's sum over exactly its n + 1 terms (the same summation as an unpadded row)
-        order = np.argsort(n, kind="stable")
+        # each point's sum over exactly its n + 1 terms (the same summation as an unpadded row):
+        # up to 128 terms all rows at once, the longer ones level by level
+        short = n < PAIRWISE_BLOCK
+        if short.all():
+            part[:] = PairwiseRowSums(terms, n + 1)
+            continue
+        part[short] = PairwiseRowSums(terms[short], n[short] + 1)
+        longer = np.flatnonzero(~short)
+        order = longer[np.argsort(n[longer], kind="stable")]
         levels, starts = np.unique(n[order], return_index=True)
-        ends = [*starts[1:].tolist(), n.size]
+        ends = [*starts[1:].tolist(), order.size]
         for level, lo, hi in zip(levels.tolist(), starts.tolist(), ends, strict=True):
             rows = order[lo:hi]
             part[rows] = np.add.reduce(terms[rows, : level + 1], axis=1)
     return out
+
+
+PAIRWISE_BLOCK = 128
+"""The longest row numpy's ``np.add.reduce`` sums in one block of its pairwise summation (it splits
+longer rows in halves first): the rows :func:`PairwiseRowSums` takes."""
+
+
+def PairwiseRowSums(terms: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """``np.add.reduce(terms[r, : lengths[r]])`` for every row r of a 2-d float array, bit for bit,
+    all rows at once (lengths 1..128, at most the row's width; the values past a row's length are
+    not read into its sum).
+
+    numpy sums L <= 128 float64 values a_0..a_(L-1) as: for L < 8, in turn from 0; else in eight
+    accumulators r_j = a_j + a_(8+j) + a_(16+j) + ... over the L // 8 whole blocks of 8, combined
+    as ((r_0 + r_1) + (r_2 + r_3)) + ((r_4 + r_5) + (r_6 + r_7)), then the last L % 8 values added
+    in turn (its pairwise summation, tested against ``np.add.reduce`` for every length)."""
+    count = terms.shape[0]
+    every = np.arange(count)
+    blocks = lengths // 8
+    total = np.zeros(count)
+    most = int(blocks.max(initial=0))
+    if most:
+        whole = terms[:, : 8 * most].reshape(count, most, 8)
+        r = np.add.accumulate(whole, axis=1)[every, np.maximum(blocks - 1, 0)]  # (rows, 8)
+        combined = ((r[:, 0] + r[:, 1]) + (r[:, 2] + r[:, 3])) + (
+            (r[:, 4] + r[:, 5]) + (r[:, 6] + r[:, 7])
+        )
+        total = np.where(blocks > 0, combined, 0.0)
+    rest = lengths - 8 * blocks
+    last = terms.shape[1] - 1
+    for k in range(7):
+        adds = rest > k
+        if not adds.any():
+            break
+        value = terms[every, np.minimum(8 * blocks + k, last)]
+        total = np.where(adds, total + value, total)
+    return total
 
 
 _IRWIN_HALL_CHUNK = 4096
