@@ -237,34 +237,38 @@ longer rows in halves first): the rows :func:`PairwiseRowSums` takes."""
 
 
 def PairwiseRowSums(terms: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """``np.add.reduce(terms[r, : lengths[r]])`` for every row r of a 2-d float array, bit for bit,
-    all rows at once (lengths 1..128, at most the row's width; the values past a row's length are
-    not read into its sum).
+    """``np.add.reduce(terms[r, : lengths[r]])`` for every row r of a 2-d array of values >= 0,
+    bit for bit, all rows at once (lengths 1..128, at most the row's width; the values past a row's
+    length are not read into its sum).
 
     numpy sums L <= 128 float64 values a_0..a_(L-1) as: for L < 8, in turn from 0; else in eight
     accumulators r_j = a_j + a_(8+j) + a_(16+j) + ... over the L // 8 whole blocks of 8, combined
     as ((r_0 + r_1) + (r_2 + r_3)) + ((r_4 + r_5) + (r_6 + r_7)), then the last L % 8 values added
-    in turn (its pairwise summation, tested against ``np.add.reduce`` for every length)."""
-    count = terms.shape[0]
-    every = np.arange(count)
+    in turn (its pairwise summation, tested against ``np.add.reduce`` for every length). Here the
+    values outside a row's whole blocks, and past its length, are replaced by zeros: adding +0 to a
+    sum of values >= 0 leaves it as it is."""
+    count, width = terms.shape
     blocks = lengths // 8
-    total = np.zeros(count)
     most = int(blocks.max(initial=0))
+    total = np.zeros(count)
     if most:
-        whole = terms[:, : 8 * most].reshape(count, most, 8)
-        r = np.add.accumulate(whole, axis=1)[every, np.maximum(blocks - 1, 0)]  # (rows, 8)
-        combined = ((r[:, 0] + r[:, 1]) + (r[:, 2] + r[:, 3])) + (
-            (r[:, 4] + r[:, 5]) + (r[:, 6] + r[:, 7])
-        )
-        total = np.where(blocks > 0, combined, 0.0)
+        whole = np.where(
+            np.arange(8 * most) < 8 * blocks[:, None], terms[:, : 8 * most], 0.0
+        )  # (rows, 8 · blocks): each row's whole blocks
+        r = whole[:, :8]
+        for b in range(1, most):
+            r = r + whole[:, 8 * b : 8 * b + 8]
+        pairs = r[:, 0::2] + r[:, 1::2]  # r_0 + r_1, r_2 + r_3, r_4 + r_5, r_6 + r_7
+        quads = pairs[:, 0::2] + pairs[:, 1::2]
+        total = quads[:, 0] + quads[:, 1]
     rest = lengths - 8 * blocks
-    last = terms.shape[1] - 1
-    for k in range(7):
-        adds = rest > k
-        if not adds.any():
-            break
-        value = terms[every, np.minimum(8 * blocks + k, last)]
-        total = np.where(adds, total + value, total)
+    longest = int(rest.max(initial=0))
+    if longest:
+        k = np.arange(longest)
+        index = np.minimum(8 * blocks[:, None] + k, width - 1)
+        tail = np.where(k < rest[:, None], np.take_along_axis(terms, index, axis=1), 0.0)
+        for j in range(longest):
+            total = total + tail[:, j]
     return total
 
 
