@@ -128,6 +128,8 @@ def PoissonPmf(mean: np.ndarray, n_max: int) -> np.ndarray:
     """e^(-Λ) Λ^n / n! for n = 0..n_max, shape mean.shape + (n_max + 1,), computed in log space."""
     mean = np.asarray(mean, dtype=float)[..., None]
     k = np.arange(n_max + 1)
+    if mean.size and mean.min() > 0.0:  # every Λ > 0 (none NaN): nothing to mask
+        return np.exp(k * np.log(mean) - mean - _LogFactorials(n_max))
     log_mean = np.log(np.where(mean > 0.0, mean, 1.0))
     pmf = np.exp(k * log_mean - mean - _LogFactorials(n_max))
     return np.where(mean > 0.0, pmf, (k == 0).astype(float))
