@@ -268,7 +268,7 @@ def PairwiseRowSums(terms: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     if longest:
         k = np.arange(longest)
         index = np.minimum(8 * blocks[:, None] + k, width - 1)
-        tail = np.where(k < rest[:, None], np.take_along_axis(terms, index, axis=1), 0.0)
+        tail = np.where(k < rest[:, None], terms[np.arange(count)[:, None], index], 0.0)
         for j in range(longest):
             total = total + tail[:, j]
     return total
