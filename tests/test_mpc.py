@@ -308,3 +308,18 @@ def test_pchip_at_one_point_equals_the_array_evaluation():
         assert [_Pchip(x, y, d, float(v))[0] for v in x] == list(y)
         assert _Pchip(x, y, d, float(x[0]) - 5.0) == (y[0], 0.0)
         assert _Pchip(x, y, d, float(x[-1]) + 5.0) == (y[-1], 0.0)
+
+
+def test_pchip_value_is_pchips_value_bit_for_bit():
+    # the margins read the interpolant's value alone: the same numbers as Pchip's
+    from eaplan_drake.planning.interpolation import Pchip, PchipSlopes, PchipValue
+
+    rng = np.random.default_rng(4)
+    for size in (1, 2, 5, 20):
+        x = np.cumsum(rng.uniform(0.1, 50.0, size))
+        y = rng.uniform(0.0, 0.3, size)
+        d = PchipSlopes(x, y)
+        t = np.concatenate([x, rng.uniform(x[0] - 10.0, x[-1] + 10.0, 200)])
+        assert np.array_equal(PchipValue(x, y, d, t), Pchip(x, y, d, t)[0])
+        for tk in t[::17]:
+            assert PchipValue(x, y, d, float(tk)) == Pchip(x, y, d, float(tk))[0]

@@ -184,3 +184,34 @@ def test_count_logarithms_are_those_of_each_range():
     table = risk._LogCounts(3000)
     for stop in range(2, 3000, 7):
         assert np.array_equal(np.log(np.arange(1, stop)), table[1:stop])
+
+
+@pytest.mark.parametrize("scale", ["unit", "wide", "tiny", "sparse"])
+def test_pairwise_row_sums_are_numpys_sums_bit_for_bit(scale):
+    # numpy's np.add.reduce of each row's first L values >= 0 (its pairwise summation), for
+    # every length 1..128, rows of any width beyond their length
+    rng = np.random.default_rng(11)
+    for length in range(1, risk.PAIRWISE_BLOCK + 1):
+        shape = (60, length + int(rng.integers(0, 12)))
+        terms = rng.random(shape)
+        if scale == "wide":
+            terms *= 10.0 ** rng.uniform(-20.0, 20.0, shape)
+        elif scale == "tiny":  # subnormal sums
+            terms *= 10.0 ** rng.uniform(-320.0, -300.0, shape)
+        elif scale == "sparse":
+            terms *= rng.random(shape) < 0.5
+        lengths = rng.integers(1, length + 1, shape[0])
+        lengths[0] = length
+        expected = np.array([np.add.reduce(row[:n]) for row, n in zip(terms, lengths, strict=True)])
+        got = risk.PairwiseRowSums(terms, lengths)
+        assert np.array_equal(got.view(np.int64), expected.view(np.int64)), length
+
+
+def test_irwin_hall_is_the_level_by_level_sum_bit_for_bit():
+    # all rows at once up to 128 terms, the longer ones level by level: the same numbers
+    rng = np.random.default_rng(5)
+    for top in (5, 40, 127, 128, 200):
+        count = rng.integers(1, top + 1, 3000)
+        x = rng.uniform(0.0, 1.0, count.size) * count
+        x[::13] = np.floor(x[::13])
+        assert np.array_equal(risk._IrwinHallCdf(count, x), RefIrwinHallCdf(count, x))

@@ -6,7 +6,7 @@ import bisect
 
 import numpy as np
 
-__all__ = ["HermiteBasis", "HermiteBasisSlope", "LowerHull", "Pchip", "PchipSlopes"]
+__all__ = ["HermiteBasis", "HermiteBasisSlope", "LowerHull", "Pchip", "PchipSlopes", "PchipValue"]
 
 
 def HermiteBasis(s):
@@ -43,17 +43,34 @@ def Pchip(x: np.ndarray, y: np.ndarray, d: np.ndarray, t) -> tuple:
     t = np.asarray(t, dtype=float)
     if x.size == 1:
         return np.full_like(t, y[0]), np.zeros_like(t)
+    tc, i, h, s, value = _PchipValues(x, y, d, t)
+    dh00, dh10, dh01, dh11 = HermiteBasisSlope(s)
+    dh00, dh10, dh01, dh11 = dh00 / h, dh10 / h, dh01 / h, dh11 / h
+    slope = dh00 * y[i] + dh10 * h * d[i] + dh01 * y[i + 1] + dh11 * h * d[i + 1]
+    inside = (t >= x[0]) & (t <= x[-1])
+    return value, np.where(inside, slope, 0.0)
+
+
+def PchipValue(x: np.ndarray, y: np.ndarray, d: np.ndarray, t):
+    """The value of :func:`Pchip` alone (the same operations, no slope)."""
+    if np.ndim(t) == 0:
+        return _PchipAt(x, y, d, float(t))[0]
+    t = np.asarray(t, dtype=float)
+    if x.size == 1:
+        return np.full_like(t, y[0])
+    return _PchipValues(x, y, d, t)[-1]
+
+
+def _PchipValues(x, y, d, t):
+    """The clipped t, interval index i, its width h, s in [0, 1] and the value of :func:`Pchip`
+    at the array ``t`` (x.size >= 2)."""
     tc = np.clip(t, x[0], x[-1])
     i = np.clip(np.searchsorted(x, tc, side="right") - 1, 0, x.size - 2)
     h = x[i + 1] - x[i]
     s = (tc - x[i]) / h
     h00, h10, h01, h11 = HermiteBasis(s)
     value = h00 * y[i] + h10 * h * d[i] + h01 * y[i + 1] + h11 * h * d[i + 1]
-    dh00, dh10, dh01, dh11 = HermiteBasisSlope(s)
-    dh00, dh10, dh01, dh11 = dh00 / h, dh10 / h, dh01 / h, dh11 / h
-    slope = dh00 * y[i] + dh10 * h * d[i] + dh01 * y[i + 1] + dh11 * h * d[i + 1]
-    inside = (t >= x[0]) & (t <= x[-1])
-    return value, np.where(inside, slope, 0.0)
+    return tc, i, h, s, value
 
 
 def _PchipAt(x: np.ndarray, y: np.ndarray, d: np.ndarray, t: float) -> tuple[float, float]:

@@ -25,7 +25,7 @@ import numpy as np
 
 from eaplan_drake.params import MAX_EXPECTED_DROPS, PlannerParams
 from eaplan_drake.planning.belief import PRIOR_DROPS, RateBelief
-from eaplan_drake.planning.interpolation import Pchip, PchipSlopes
+from eaplan_drake.planning.interpolation import Pchip, PchipSlopes, PchipValue
 from eaplan_drake.planning.learnt_sizes import DirichletDrops
 from eaplan_drake.planning.risk import FaultModel, TotalDropTail
 from eaplan_drake.planning.risk_margin import (
@@ -156,7 +156,7 @@ class RiskMargin(Margin):
         self.budget = float(budget)
 
     def FaultReserve(self, t):
-        return Pchip(self.times, self.margins, self.slopes, t)[0]
+        return PchipValue(self.times, self.margins, self.slopes, t)
 
     def FaultReserveSlope(self, t: float) -> float:
         return float(Pchip(self.times, self.margins, self.slopes, t)[1])

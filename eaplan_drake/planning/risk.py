@@ -128,6 +128,8 @@ def PoissonPmf(mean: np.ndarray, n_max: int) -> np.ndarray:
     """e^(-Λ) Λ^n / n! for n = 0..n_max, shape mean.shape + (n_max + 1,), computed in log space."""
     mean = np.asarray(mean, dtype=float)[..., None]
     k = np.arange(n_max + 1)
+    if mean.size and mean.min() > 0.0:  # every Λ > 0 (none NaN): nothing to mask
+        return np.exp(k * np.log(mean) - mean - _LogFactorials(n_max))
     log_mean = np.log(np.where(mean > 0.0, mean, 1.0))
     pmf = np.exp(k * log_mean - mean - _LogFactorials(n_max))
     return np.where(mean > 0.0, pmf, (k == 0).astype(float))
@@ -214,14 +216,62 @@ def _IrwinHallCdf(count: np.ndarray, x: np.ndarray) -> np.ndarray:
             basis = np.where(t == 0.0, i == 0, np.where(t == 1.0, i == column, np.exp(log_basis)))
         terms = coeffs[n, piece, : top + 1] * np.where(i <= column, basis, 0.0)
         part = out[chunk : chunk + _IRWIN_HALL_CHUNK]
-        # each point's sum over exactly its n + 1 terms (the same summation as an unpadded row)
-        order = np.argsort(n, kind="stable")
+        # each point's sum over exactly its n + 1 terms (the same summation as an unpadded row):
+        # up to 128 terms all rows at once, the longer ones level by level
+        short = n < PAIRWISE_BLOCK
+        if short.all():
+            part[:] = PairwiseRowSums(terms, n + 1)
+            continue
+        part[short] = PairwiseRowSums(terms[short], n[short] + 1)
+        longer = np.flatnonzero(~short)
+        order = longer[np.argsort(n[longer], kind="stable")]
         levels, starts = np.unique(n[order], return_index=True)
-        ends = [*starts[1:].tolist(), n.size]
+        ends = [*starts[1:].tolist(), order.size]
         for level, lo, hi in zip(levels.tolist(), starts.tolist(), ends, strict=True):
             rows = order[lo:hi]
             part[rows] = np.add.reduce(terms[rows, : level + 1], axis=1)
     return out
+
+
+PAIRWISE_BLOCK = 128
+"""The longest row numpy's ``np.add.reduce`` sums in one block of its pairwise summation (it splits
+longer rows in halves first): the rows :func:`PairwiseRowSums` takes."""
+
+
+def PairwiseRowSums(terms: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """``np.add.reduce(terms[r, : lengths[r]])`` for every row r of a 2-d array of values >= 0,
+    bit for bit, all rows at once (lengths 1..128, at most the row's width; the values past a row's
+    length are not read into its sum).
+
+    numpy sums L <= 128 float64 values a_0..a_(L-1) as: for L < 8, in turn from 0; else in eight
+    accumulators r_j = a_j + a_(8+j) + a_(16+j) + ... over the L // 8 whole blocks of 8, combined
+    as ((r_0 + r_1) + (r_2 + r_3)) + ((r_4 + r_5) + (r_6 + r_7)), then the last L % 8 values added
+    in turn (its pairwise summation, tested against ``np.add.reduce`` for every length). Here the
+    values outside a row's whole blocks, and past its length, are replaced by zeros: adding +0 to a
+    sum of values >= 0 leaves it as it is."""
+    count, width = terms.shape
+    blocks = lengths // 8
+    most = int(blocks.max(initial=0))
+    total = np.zeros(count)
+    if most:
+        whole = np.where(
+            np.arange(8 * most) < 8 * blocks[:, None], terms[:, : 8 * most], 0.0
+        )  # (rows, 8 · blocks): each row's whole blocks
+        r = whole[:, :8]
+        for b in range(1, most):
+            r = r + whole[:, 8 * b : 8 * b + 8]
+        pairs = r[:, 0::2] + r[:, 1::2]  # r_0 + r_1, r_2 + r_3, r_4 + r_5, r_6 + r_7
+        quads = pairs[:, 0::2] + pairs[:, 1::2]
+        total = quads[:, 0] + quads[:, 1]
+    rest = lengths - 8 * blocks
+    longest = int(rest.max(initial=0))
+    if longest:
+        k = np.arange(longest)
+        index = np.minimum(8 * blocks[:, None] + k, width - 1)
+        tail = np.where(k < rest[:, None], terms[np.arange(count)[:, None], index], 0.0)
+        for j in range(longest):
+            total = total + tail[:, j]
+    return total
 
 
 _IRWIN_HALL_CHUNK = 4096

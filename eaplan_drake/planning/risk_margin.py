@@ -124,7 +124,8 @@ def _PoissonWeights(mean, n: int) -> np.ndarray:
     """e^(−Λ) Λ^k / k! for k = 0..n−1 (:func:`~eaplan_drake.planning.risk.PoissonPmf`), with
     values below 1e-150 set to 0: subnormal numbers make the table's products slow."""
     pmf = PoissonPmf(mean, n - 1)
-    return np.where(pmf < _TINY, 0.0, pmf)
+    pmf[pmf < _TINY] = 0.0
+    return pmf
 
 
 def _Counts(mean: float) -> int:
@@ -193,7 +194,8 @@ class ExcessRiskTable:
         self._mixed_key, self._mixed = None, None
 
     def _CountsFor(self, *means) -> int:
-        largest = max(float(np.max(np.asarray(m), initial=0.0)) for m in means)
+        # the largest of np.max(m, initial=0.0) (a NaN kept as it is)
+        largest = max(max(float(m.max()), 0.0) if m.size else 0.0 for m in map(np.asarray, means))
         if largest > self.top_rate * self.max_exposure * (1.0 + 1e-9):
             raise ValueError(
                 f"exposure: at most {self.max_exposure:g} s for this table, got "
@@ -387,16 +389,13 @@ class _Search:
 
     def Rows(self, rows) -> "_Search":
         """The same search for the plans ``rows`` only."""
-        return _Search(
-            self.table,
-            self.tau[rows],
-            self.tau_0,
-            self.m_0,
-            self.fail_0,
-            self.eps,
-            self.mixed,
-            self.weighted[rows],
-        )
+        search = object.__new__(_Search)  # what does not depend on the plans is shared
+        search.__dict__.update(self.__dict__)
+        search.tau, search.weighted = self.tau[rows], self.weighted[rows]
+        search.longer, search.level = self.longer[rows], self.level[rows]
+        search.all_longer = bool(search.longer.all())
+        search.any_level = bool(search.level.any())
+        return search
 
     def Within(self, trials) -> np.ndarray:
         """R ≤ ε at the trial margins (rows, k) [-], all in [0, m_0]."""
