@@ -374,14 +374,13 @@ class _Search:
     M(u) = u m_p + (1 − u) m_0 is never negative: the branches of a negative margin drop out."""
 
     def __init__(self, table, tau, tau_0, m_0, fail_0, eps, mixed, weighted):
-        self.table, self.tau, self.tau_0, self.m_0 = table, tau, tau_0, m_0
+        self.table, self.tau_0, self.m_0 = table, tau_0, m_0
         self.fail_0, self.eps = fail_0, eps
-        self.mixed, self.weighted = mixed, weighted
+        self.mixed = mixed
         self.u = table.u
         self.rest = (1.0 - self.u) * m_0[..., None]  # (1 − u) m_0 of M(u)
         self.offset = table.row * self.mixed.shape[1]
-        self.longer, self.level = tau >= tau_0, tau == tau_0
-        self.all_longer, self.any_level = bool(self.longer.all()), bool(self.level.any())
+        self._SetPlans(tau, weighted)
         self.spare = 1.0 - fail_0
         self.capped = not float(m_0) < 1.0
         # clip(R, 0, 1) ≤ ε is R ≤ ε for 0 ≤ ε < 1 (and NaN fails both)
@@ -391,11 +390,14 @@ class _Search:
         """The same search for the plans ``rows`` only."""
         search = object.__new__(_Search)  # what does not depend on the plans is shared
         search.__dict__.update(self.__dict__)
-        search.tau, search.weighted = self.tau[rows], self.weighted[rows]
-        search.longer, search.level = self.longer[rows], self.level[rows]
-        search.all_longer = bool(search.longer.all())
-        search.any_level = bool(search.level.any())
+        search._SetPlans(self.tau[rows], self.weighted[rows])
         return search
+
+    def _SetPlans(self, tau, weighted) -> None:
+        """The plans' times τ_p (rows) and their quadrature weights, and what follows from them."""
+        self.tau, self.weighted = tau, weighted
+        self.longer, self.level = tau >= self.tau_0, tau == self.tau_0
+        self.all_longer, self.any_level = bool(self.longer.all()), bool(self.level.any())
 
     def Within(self, trials) -> np.ndarray:
         """R ≤ ε at the trial margins (rows, k) [-], all in [0, m_0]."""
