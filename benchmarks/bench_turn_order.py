@@ -26,7 +26,8 @@ MIN_TURNING_RADIUS = 62.45
 
 
 def TurnGroups(legs) -> list[list]:
-    """The route's turns, each the list of its consecutive ``turn`` legs."""
+    """The route's turns, each the list of its consecutive ``turn`` legs (``Route.TurnGroups``,
+    written here too so that the script runs against checkouts older than it)."""
     groups, current = [], []
     for leg in legs:
         if leg.kind == "turn":

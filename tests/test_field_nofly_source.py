@@ -11,37 +11,19 @@ shapely = pytest.importorskip("shapely")
 pytest.importorskip("pyproj")
 
 from test_field_missions import FRAME, Field  # noqa: E402
+from test_field_source import HI, LO, Source  # noqa: E402
 
 from eaplan_drake.errors import ScenarioError  # noqa: E402
 from eaplan_drake.field.nofly import CLEARANCE  # noqa: E402
 from eaplan_drake.field.readers import FieldFromLocal, FieldGeoJsonText  # noqa: E402
-from eaplan_drake.field.source import AvoidingFieldCoverage, FieldCoverage  # noqa: E402
+from eaplan_drake.field.source import AvoidingFieldCoverage  # noqa: E402
 from eaplan_drake.flight.stages import APPROACH, StagePoints  # noqa: E402
-from eaplan_drake.params import Scenario  # noqa: E402
-
-LO, HI = -1000.0, 0.0
-
-
-def Source(cls, field, initial_c1=LO, **kwargs):
-    """``cls`` (a field coverage) over ``field`` with the default scenario's coverage, from
-    (−150, −150) m, c1 over [LO, HI]."""
-    s = Scenario()
-    return cls(
-        field,
-        s.coverage,
-        start=(-150.0, -150.0),
-        airspeed=s.vehicle.airspeed,
-        initial_c1=initial_c1,
-        k_e=s.guidance.k_e,
-        c1_bounds=(LO, HI),
-        **kwargs,
-    )
 
 
 @pytest.fixture(scope="module")
 def avoiding():
     field = Field()
-    return field, Source(AvoidingFieldCoverage, field)
+    return field, Source(field, cls=AvoidingFieldCoverage)
 
 
 def Closest(stages, field) -> float:
@@ -61,7 +43,7 @@ def test_the_stages_at_the_lowest_and_highest_c1_keep_out_of_the_buffered_hole(a
         for i, stage in enumerate(stages):  # the anchors continue the same plan
             assert source.StagesAfter(stage.index, stage.anchor, c1) == stages[i + 1 :], i
     # without the polygons the same field's stages overfly the hole
-    plain = Source(FieldCoverage, field)
+    plain = Source(field)
     assert Closest(plain.Stages(HI), field) == 0.0
     # at the lowest c1 the survey lines are the pre-flight route's (which keeps out of it)
     lines = [(s.entry, s.trigger) for s in source.Stages(LO) if s.primitive in (0, 2)]
@@ -147,7 +129,7 @@ def test_every_c1_of_the_planners_grid_is_checked_before_the_flight():
 
     checked = []
     grid = np.linspace(LO, HI, 5)
-    Source(Recording, Field(), initial_c1=-300.0, checked_c1=grid)
+    Source(Field(), -300.0, cls=Recording, checked_c1=grid)
     assert sorted(set(checked)) == sorted({*grid.tolist(), -300.0})
 
 
@@ -167,7 +149,7 @@ def test_an_off_grid_c1_without_an_approach_flies_the_first_cell_at_the_checked_
 
     field = Field()
     grid = np.linspace(LO, HI, 5)  # -1000, -750, -500, -250, 0
-    source = Source(NoApproachAt, field, checked_c1=grid)
+    source = Source(field, cls=NoApproachAt, checked_c1=grid)
     with pytest.raises(AirspaceError):  # the injected failure is real
         source._Approach(off_grid)
     stages = source.Stages(off_grid)

@@ -88,14 +88,7 @@ def test_lines_far_apart_are_joined_by_quarter_circles_and_a_straight_piece():
     when w = 2 r_min)."""
     rect = shapely.Polygon([(0, 0), (300, 0), (300, 300), (0, 300)])  # 30 lines at 10 m
     route = MakeRoute(Decompose(rect, 0.0), 10.0, 70.0)  # J = 14: turns 150 m and 140 m wide
-    legs = route.legs
-    turns, current = [], []
-    for leg in legs:
-        if leg.kind == "turn":
-            current.append(leg)
-        elif current:
-            turns.append(current)
-            current = []
+    turns = route.TurnGroups()
     assert len(turns) == route.turns == 29
     for k, turn in enumerate(turns[:4]):
         arcs = [leg for leg in turn if leg.radius > 0.0]

@@ -24,9 +24,11 @@ LO, HI = -1000.0, 0.0
 RANDOM_SEEDS = range(20)
 
 
-def _Source(field, c1=LO, start=(-150.0, -150.0)):
+def Source(field, c1=LO, start=(-150.0, -150.0), cls=FieldCoverage, **kwargs):
+    """``cls`` (a field coverage) over ``field`` with the default scenario's coverage, from
+    ``start`` [m], starting at c1 [m²] over [LO, HI] (``kwargs``: the class's own arguments)."""
     s = Scenario()
-    return FieldCoverage(
+    return cls(
         field,
         s.coverage,
         start=start,
@@ -34,17 +36,18 @@ def _Source(field, c1=LO, start=(-150.0, -150.0)):
         initial_c1=c1,
         k_e=s.guidance.k_e,
         c1_bounds=(LO, HI),
+        **kwargs,
     )
 
 
 @pytest.fixture(scope="module")
 def funen():
-    return _Source(ReadField(FieldPath("funen_field")))
+    return Source(ReadField(FieldPath("funen_field")))
 
 
 @pytest.fixture(scope="module")
 def randoms():
-    return {seed: _Source(RandomField(seed, holes=seed % 3)) for seed in (0, 4, 8)}
+    return {seed: Source(RandomField(seed, holes=seed % 3)) for seed in (0, 4, 8)}
 
 
 def test_random_fields_are_seeded_non_convex_and_have_their_holes():
@@ -125,7 +128,7 @@ def test_random_fields_are_covered_and_the_route_stays_near_them(seed):
     within x_d/2 of it (they run over their swath band) and turns within (1 + √3) r_min + x_d
     (three arcs between lines closer than 2 r_min swing out that far beyond the line ends)."""
     field = RandomField(seed, holes=seed % 3)
-    source = _Source(field, HI)
+    source = Source(field, HI)
     coverage = Scenario().coverage
     assert source.SwathCoverage(HI) >= 0.99
     for s in source.Stages(HI)[1:]:
