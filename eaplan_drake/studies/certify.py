@@ -618,6 +618,7 @@ def RunCertify(args, fly) -> int:
     world_model = WorldFaultModel(
         scenario.planner.fault_model, getattr(args, "world_fault_model", [])
     )
+    changing = getattr(args, "changing_worlds", True)
 
     def Make(worlds, proposal=None):
         return CertifyStudy(
@@ -629,7 +630,7 @@ def RunCertify(args, fly) -> int:
             proposal=proposal,
             proposal_from=args.pilot if weighted else 0,
             base=scenario,
-            changing=getattr(args, "changing_worlds", True),
+            changing=changing,
             fault_model=world_model,
         )
 
@@ -647,7 +648,7 @@ def RunCertify(args, fly) -> int:
         + "\n"
         + BeliefLine(scenario.planner.fault_model, model)
         + "\n"
-        + WorldsLine(getattr(args, "changing_worlds", True), overrides)
+        + WorldsLine(changing, overrides)
     )
     print(line)
     anytime = weighted or args.until_decided
