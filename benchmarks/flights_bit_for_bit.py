@@ -1,7 +1,7 @@
 """Are the flights of this tree the same, bit for bit, as those of another tree?
 
     python3 benchmarks/flights_bit_for_bit.py --baseline-tree ../base [--flights plan_i,survey]
-        [--certify-worlds 20] [--certify-set planner.reserve=fixed]
+        [--certify-worlds 20] [--changing-worlds 8] [--certify-set planner.reserve=fixed]
 
 flies each flight in a fresh process with this tree and with the baseline tree (a checkout of
 another version, e.g. ``git worktree add ../base <commit>``), saves every logged signal and the
@@ -11,7 +11,10 @@ non-zero if any differs. The default flights: the four reference flights, the co
 with the default planner, a greedy flight in wind, the shipped survey and the shipped field
 (``funen``); ``--certify-worlds N`` adds the default policy's flights on the first N worlds that
 ``eaplan-drake certify survey`` draws (faults, noise, dropouts and wind: they exercise the risk
-reserve's every branch), with ``--certify-set`` assignments on their scenario if given.
+reserve's every branch), with ``--certify-set`` assignments on their scenario if given;
+``--changing-worlds N`` the same on the first N of certify's default worlds, those that change in
+flight (gusts, drift, the pack's health, the payload's offset: the wind estimate and the staircase
+move at every stage), for trees that have them.
 """
 
 import argparse
@@ -45,12 +48,15 @@ except ImportError:  # a tree from before the package layout
     from eaplan_drake.simulation import LoadNamedScenario
 from eaplan_drake.simulation import Simulate
 name, out = sys.argv[1], sys.argv[2]
-if name.startswith("certify:"):  # the policy flight of one world that certify draws
+if name.startswith("certify"):  # the policy flight of one world that certify draws
     import inspect
     from eaplan_drake.studies.certify import CertifyStudy
     from eaplan_drake.studies.sweep import StudyFlights
-    # certify's steady worlds (a tree from before they were certify's default takes no keyword)
+    # certify's steady worlds (a tree from before they were certify's default takes no keyword),
+    # or its changing ones
     steady = {"changing": False} if "changing" in inspect.signature(CertifyStudy).parameters else {}
+    if name.startswith("certify-changing:"):
+        steady = {"changing": True}
     scenario_name, world = name.split(":")[1], int(name.split(":")[2])
     flights = StudyFlights(CertifyStudy(scenario_name, world + 1, **steady))
     scenario = next(s for k, s in flights if k["world"] == world and k["policy"] != "lowest")
@@ -130,6 +136,13 @@ def main() -> int:
     ap.add_argument("--flights", default=",".join(FLIGHTS), help="comma-separated names")
     ap.add_argument("--certify-worlds", type=int, default=0, metavar="N")
     ap.add_argument(
+        "--changing-worlds",
+        type=int,
+        default=0,
+        metavar="N",
+        help="the first N of certify's worlds that change in flight (its default ones)",
+    )
+    ap.add_argument(
         "--certify-set",
         action="append",
         default=[],
@@ -143,6 +156,12 @@ def main() -> int:
         {
             f"certify_{k}": (f"certify:survey:{k}", args.certify_set)
             for k in range(args.certify_worlds)
+        }
+    )
+    flights.update(
+        {
+            f"changing_{k}": (f"certify-changing:survey:{k}", args.certify_set)
+            for k in range(args.changing_worlds)
         }
     )
     same = True
