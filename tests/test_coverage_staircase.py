@@ -116,6 +116,15 @@ def test_the_staircase_depends_on_its_arguments_only():
     assert forward == backward
 
 
+def test_the_staircase_refuses_the_winds_that_stage_time_refuses():
+    plan = _Plan(FIELDS[0])
+    stages = plan.Stages(0.0)
+    for stage in (stages[0], stages[2], stages[4]):  # approach, half circle, second circle
+        for wind in ((V_A, 0.0), (0.0, -20.0), (math.nan, 0.0)):
+            with pytest.raises(ValueError, match="wind"):
+                plan.TimeAfter(stage.index, stage.anchor, -437.25, V_A, wind)
+
+
 @pytest.mark.parametrize("normal", [(1.0, 0.0), (1.0, -0.0), (-0.0, -1.0), (0.6, -0.8)])
 def test_a_line_has_one_ground_speed_at_every_point(normal):
     """LineSpeed (what the staircase times a line with) does not depend on the point."""

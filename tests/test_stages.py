@@ -55,8 +55,7 @@ def test_an_arc_is_timed_from_its_start_as_its_stage(radius):
             entry = (312.25 + radius * math.cos(angle), -48.5 + radius * math.sin(angle))
             st = Stage(0, c, entry, 1, 0.0, entry, 0.75 * math.pi * radius)
             for wind in ((0.0, 0.0), (-0.0, 0.0), (5.0, -3.0), (-7.5, 11.25), (0.0, 9.0)):
-                w = np.array(wind)
-                time = ArcStartTime(ArcStart(c, entry), st.length, V_A, w)
+                time = ArcStartTime(ArcStart(c, entry), st.length, V_A, *wind)
                 assert time == StageTime(st, V_A, wind), (s, angle, wind)
 
 

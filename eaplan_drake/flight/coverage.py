@@ -498,16 +498,16 @@ class ZamboniCoverage(PlanSource):
         """StageTime [s] of each stage of :meth:`_RepStages` at ``airspeed`` in ``wind``, from the
         repetition's geometry without building its stages (the staircase times ~20 values of c1
         whose stages nobody flies): the same lengths, the lines' ground speed (:meth:`_LineSpeed`)
-        and, in wind, the same circles timed by the same function, so the same numbers."""
-        w = CheckedWind(airspeed, wind)
+        and, in wind, the same circles timed by the same function, so the same numbers. The wind
+        is a pair of Python floats, already checked (:func:`CheckedWind`)."""
         line_d, arc1, line_u, arc2 = self._RepArcs(eta_d, r2, prev_eta_u)
         times = [
             _LineTime(line_d, self._LineSpeed(1.0, airspeed, wind)),
-            ArcStartTime(*arc1, airspeed, w),
+            ArcStartTime(*arc1, airspeed, *wind),
             _LineTime(line_u, self._LineSpeed(-1.0, airspeed, wind)),
         ]
         if arc2 is not None:
-            times.append(ArcStartTime(*arc2, airspeed, w))
+            times.append(ArcStartTime(*arc2, airspeed, *wind))
         return tuple(times)
 
     @_Memoized(4096)
@@ -579,7 +579,9 @@ class ZamboniCoverage(PlanSource):
         return tuple(s for s in self._RestFrom(k, eta_d, c1) if s.index > index)
 
     def _StageTimesAfter(self, index, anchor, c1, airspeed, wind) -> tuple[float, ...]:
-        """The stage times of :meth:`_StagesAfter`, timed per repetition (:meth:`_RepTimes`)."""
+        """The stage times of :meth:`_StagesAfter`, timed per repetition (:meth:`_RepTimes`);
+        ValueError for a wind that :func:`CheckedWind` refuses, as :func:`StageTime`."""
+        CheckedWind(airspeed, wind)
         k, prim, eta_d, r2k = anchor
         k, prim = int(round(k)), int(round(prim))
         if prim == APPROACH:  # the whole plan but the approach

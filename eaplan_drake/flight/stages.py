@@ -256,7 +256,7 @@ def LineSpeed(path: PathFunction, point, airspeed: float, w: np.ndarray) -> floa
 def ArcTime(path: PathFunction, entry, length: float, airspeed: float, w: np.ndarray) -> float:
     """Time [s] to fly ``length`` [m] (> 0) on the circle ``path`` from ``entry`` [m] at
     ``airspeed`` [m/s] in wind ``w`` [m/s] (the circle part of :func:`StageTime`)."""
-    return ArcStartTime(ArcStart(path, entry), length, airspeed, w)
+    return ArcStartTime(ArcStart(path, entry), length, airspeed, float(w[0]), float(w[1]))
 
 
 def ArcStart(path: PathFunction, entry) -> tuple[float, float, bool]:
@@ -269,13 +269,13 @@ def ArcStart(path: PathFunction, entry) -> tuple[float, float, bool]:
     return float(path.radius), a0, ccw
 
 
-def ArcStartTime(start: tuple, length: float, airspeed: float, w: np.ndarray) -> float:
+def ArcStartTime(start: tuple, length: float, airspeed: float, wx: float, wy: float) -> float:
     """:func:`ArcTime` of the arc of ``length`` [m] (> 0) that begins at ``start``
-    (:func:`ArcStart`), at ``airspeed`` [m/s] in wind ``w`` [m/s]."""
-    if not w.any():
+    (:func:`ArcStart`), at ``airspeed`` [m/s] in the wind (wx, wy) [m/s] (Python floats)."""
+    if not (wx or wy):  # still air
         return length / airspeed
     radius, a0, ccw = start
-    return _ArcTime(float(length), radius, a0, ccw, float(airspeed), float(w[0]), float(w[1]))
+    return _ArcTime(float(length), radius, a0, ccw, float(airspeed), wx, wy)
 
 
 @functools.lru_cache(maxsize=4096)
