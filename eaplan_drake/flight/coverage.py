@@ -494,23 +494,6 @@ class ZamboniCoverage(PlanSource):
         return top_d, bottom, top_u, eta_u
 
     @_Memoized(4096)
-    def _RepTimes(self, k, eta_d, r2, c1, prev_eta_u, airspeed, wind) -> tuple[float, ...]:
-        """StageTime [s] of each stage of :meth:`_RepStages` at ``airspeed`` in ``wind``, from the
-        repetition's geometry without building its stages (the staircase times ~20 values of c1
-        whose stages nobody flies): the same lengths, the lines' ground speed (:meth:`_LineSpeed`)
-        and, in wind, the same circles timed by the same function, so the same numbers. The wind
-        is a pair of Python floats, already checked (:func:`CheckedWind`)."""
-        line_d, arc1, line_u, arc2 = self._RepArcs(eta_d, r2, prev_eta_u)
-        times = [
-            _LineTime(line_d, self._LineSpeed(1.0, airspeed, wind)),
-            ArcStartTime(*arc1, airspeed, *wind),
-            _LineTime(line_u, self._LineSpeed(-1.0, airspeed, wind)),
-        ]
-        if arc2 is not None:
-            times.append(ArcStartTime(*arc2, airspeed, *wind))
-        return tuple(times)
-
-    @_Memoized(4096)
     def _RepArcs(self, eta_d: float, r2, prev_eta_u) -> tuple:
         """(length [m] of the first line, first half circle, length [m] of the second line,
         second half circle or None) of the repetition of :meth:`_RepStages` (the same arguments
@@ -543,10 +526,20 @@ class ZamboniCoverage(PlanSource):
         return ArcStart(path, (float(entry[0]), float(entry[1]))), float(math.pi * radius)
 
     def _BuildTimes(self, reps: list, prev_eta_u, airspeed, wind) -> tuple[float, ...]:
-        """StageTime [s] of each stage of :meth:`_Build` (the same arguments), in order."""
+        """StageTime [s] of each stage of :meth:`_Build` (the same arguments), in order, from the
+        repetitions' geometry without building their stages (the staircase times ~20 values of
+        c1 whose stages nobody flies): the same lengths, the lines' ground speed
+        (:meth:`_LineSpeed`) and the same circles (:meth:`_RepArcs`) timed by the same function,
+        so the same numbers. The wind is a pair of Python floats, already checked."""
+        down, up = self._LineSpeed(1.0, airspeed, wind), self._LineSpeed(-1.0, airspeed, wind)
         times: list[float] = []
-        for k, eta_d, r2, c1 in reps:
-            times.extend(self._RepTimes(k, eta_d, r2, c1, prev_eta_u, airspeed, wind))
+        for _, eta_d, r2, _ in reps:
+            line_d, arc1, line_u, arc2 = self._RepArcs(eta_d, r2, prev_eta_u)
+            times.append(_LineTime(line_d, down))
+            times.append(ArcStartTime(*arc1, airspeed, *wind))
+            times.append(_LineTime(line_u, up))
+            if arc2 is not None:
+                times.append(ArcStartTime(*arc2, airspeed, *wind))
             prev_eta_u = eta_d + 2.0 * self.r1
         return tuple(times)
 
@@ -579,7 +572,7 @@ class ZamboniCoverage(PlanSource):
         return tuple(s for s in self._RestFrom(k, eta_d, c1) if s.index > index)
 
     def _StageTimesAfter(self, index, anchor, c1, airspeed, wind) -> tuple[float, ...]:
-        """The stage times of :meth:`_StagesAfter`, timed per repetition (:meth:`_RepTimes`);
+        """The stage times of :meth:`_StagesAfter`, timed per repetition (:meth:`_BuildTimes`);
         ValueError for a wind that :func:`CheckedWind` refuses, as :func:`StageTime`."""
         CheckedWind(airspeed, wind)
         k, prim, eta_d, r2k = anchor
