@@ -10,7 +10,7 @@ import pytest
 from eaplan_drake.flight.coverage import ZamboniCoverage
 from eaplan_drake.flight.paths import Line
 from eaplan_drake.flight.polygon import CoveragePolygon
-from eaplan_drake.flight.stages import GroundSpeed, LineSpeed, StageTime
+from eaplan_drake.flight.stages import ArcStart, GroundSpeed, LineSpeed, StageTime
 from eaplan_drake.params import CoverageParams, GuidanceParams
 
 V_A = 15.0
@@ -83,6 +83,23 @@ def test_the_staircase_is_the_sum_of_the_stage_times_after_every_flown_stage(fie
                 assert got == expected, (field, wind, stage.index, c1)
 
 
+@pytest.mark.parametrize("field", [0, 1, 3])
+def test_the_half_circles_kept_per_repetition_are_those_of_its_stages(field):
+    """The wind-free half circles the staircase keeps per repetition (_RepArcs: ArcStart and
+    length) are, bit for bit, those of the circles _RepStages builds, at every c1 of the grid."""
+    plan = _Plan(FIELDS[field])
+    for c1 in GRID:
+        prev_eta_u = None
+        for k, eta_d, r2, c1_rep in plan._Reps(0, plan.x_d / 2.0, c1):
+            stages = plan._RepStages(k, eta_d, r2, c1_rep, prev_eta_u)
+            _, arc1, _, arc2 = plan._RepArcs(eta_d, r2, prev_eta_u)
+            circles = [s for s in stages if s.is_circle]
+            assert [arc1] + ([] if arc2 is None else [arc2]) == [
+                (ArcStart(s.path, s.entry), s.length) for s in circles
+            ]
+            prev_eta_u = eta_d + 2.0 * plan.r1
+
+
 def test_the_staircase_depends_on_its_arguments_only():
     """Caches filled in another order (another plan object, stages and c1 reversed) give the
     same numbers."""
@@ -97,6 +114,15 @@ def test_the_staircase_depends_on_its_arguments_only():
         for s in reversed(flown)
     ][::-1]
     assert forward == backward
+
+
+def test_the_staircase_refuses_the_winds_that_stage_time_refuses():
+    plan = _Plan(FIELDS[0])
+    stages = plan.Stages(0.0)
+    for stage in (stages[0], stages[2], stages[4]):  # approach, half circle, second circle
+        for wind in ((V_A, 0.0), (0.0, -20.0), (math.nan, 0.0)):
+            with pytest.raises(ValueError, match="wind"):
+                plan.TimeAfter(stage.index, stage.anchor, -437.25, V_A, wind)
 
 
 @pytest.mark.parametrize("normal", [(1.0, 0.0), (1.0, -0.0), (-0.0, -1.0), (0.6, -0.8)])

@@ -10,6 +10,8 @@ import pytest
 from eaplan_drake.flight.coverage import MakeCoveragePlan
 from eaplan_drake.flight.paths import Circle
 from eaplan_drake.flight.stages import (
+    ArcStart,
+    ArcStartTime,
     GroundSpeed,
     PathLength,
     Stage,
@@ -41,6 +43,20 @@ def test_ground_speed_and_stage_time_in_wind():
     assert StageTime(st, V_A) == pytest.approx(math.pi * 75.0 / V_A)
     with pytest.raises(ValueError, match="wind"):
         StageTime(st, V_A, (15.0, 0.0))
+
+
+@pytest.mark.parametrize("radius", [75.0, 17.320508075688775, 123.4567])
+def test_an_arc_is_timed_from_its_start_as_its_stage(radius):
+    """ArcStartTime of the wind-free ArcStart (what a plan keeps per arc) is StageTime, bit for
+    bit, in still air and in wind, for both directions and any entry."""
+    for s in (-1.0, 1.0):
+        c = Circle((312.25, -48.5), radius, s=s, k_e=K_E)
+        for angle in (0.0, 1.0, -2.5, math.pi):
+            entry = (312.25 + radius * math.cos(angle), -48.5 + radius * math.sin(angle))
+            st = Stage(0, c, entry, 1, 0.0, entry, 0.75 * math.pi * radius)
+            for wind in ((0.0, 0.0), (-0.0, 0.0), (5.0, -3.0), (-7.5, 11.25), (0.0, 9.0)):
+                time = ArcStartTime(ArcStart(c, entry), st.length, V_A, *wind)
+                assert time == StageTime(st, V_A, wind), (s, angle, wind)
 
 
 def test_path_length_helper():

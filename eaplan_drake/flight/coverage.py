@@ -67,7 +67,8 @@ from eaplan_drake.flight.stages import (
     APPROACH,
     NUM_PRIMITIVES,
     ArcAngle,
-    ArcTime,
+    ArcStart,
+    ArcStartTime,
     CheckedWind,
     LineSpeed,
     MakeStage,
@@ -493,22 +494,20 @@ class ZamboniCoverage(PlanSource):
         return top_d, bottom, top_u, eta_u
 
     @_Memoized(4096)
-    def _RepTimes(self, k, eta_d, r2, c1, prev_eta_u, airspeed, wind) -> tuple[float, ...]:
-        """StageTime [s] of each stage of :meth:`_RepStages` at ``airspeed`` in ``wind``, from the
-        repetition's geometry without building its stages (the staircase times ~20 values of c1
-        whose stages nobody flies): the same lengths, the lines' ground speed (:meth:`_LineSpeed`)
-        and, in wind, the same circles timed by the same function, so the same numbers."""
-        w = CheckedWind(airspeed, wind)
+    def _RepArcs(self, eta_d: float, r2, prev_eta_u) -> tuple:
+        """(length [m] of the first line, first half circle, length [m] of the second line,
+        second half circle or None) of the repetition of :meth:`_RepStages` (the same arguments
+        but k and c1), a half circle as (:func:`ArcStart`, length [m]): what its times need,
+        independent of the wind (kept: a changing wind re-times the same repetitions)."""
         top_d, bottom, top_u, eta_u = self._RepGeometry(eta_d, r2, prev_eta_u)
         r1 = self.r1
-        times = [
-            _LineTime(float(bottom - top_d), self._LineSpeed(1.0, airspeed, wind)),
-            self._HalfCircleTime(bottom, eta_d + r1, r1, eta_d, airspeed, w),
-            _LineTime(float(bottom - top_u), self._LineSpeed(-1.0, airspeed, wind)),
-        ]
-        if r2 is not None:
-            times.append(self._HalfCircleTime(top_u, eta_u - r2, r2, eta_u, airspeed, w))
-        return tuple(times)
+        arc2 = None if r2 is None else self._HalfCircle(top_u, eta_u - r2, r2, eta_u)
+        return (
+            float(bottom - top_d),
+            self._HalfCircle(bottom, eta_d + r1, r1, eta_d),
+            float(bottom - top_u),
+            arc2,
+        )
 
     @_Memoized(64)
     def _LineSpeed(self, s: float, airspeed: float, wind) -> float:
@@ -518,24 +517,29 @@ class ZamboniCoverage(PlanSource):
         line = Line(poly.origin, poly.e2, s=s, k_e=self.k_e)
         return LineSpeed(line, poly.origin, airspeed, CheckedWind(airspeed, wind))
 
-    def _HalfCircleTime(self, xi, eta_o, radius, eta_entry, airspeed, w) -> float:
-        """StageTime [s] of the left half circle of ``radius`` [m] around (ξ, η_o) entered at
-        (ξ, η_entry) (local frame [m]), as :meth:`_RepStages` builds it."""
-        length = float(math.pi * radius)
-        if length <= 0.0:
-            return 0.0
-        if not w.any():  # ArcTime in still air: the circle itself is not needed
-            return length / airspeed
+    def _HalfCircle(self, xi, eta_o, radius, eta_entry) -> tuple[tuple, float]:
+        """(:func:`ArcStart`, length [m]) of the left half circle of ``radius`` [m] (> 0) around
+        (ξ, η_o) entered at (ξ, η_entry) (local frame [m]), as :meth:`_RepStages` builds it."""
         W = self.polygon.ToWorld
         entry = W(xi, eta_entry)
         path = Circle(W(xi, eta_o), radius, s=-1.0, k_e=self.k_e)
-        return ArcTime(path, (float(entry[0]), float(entry[1])), length, airspeed, w)
+        return ArcStart(path, (float(entry[0]), float(entry[1]))), float(math.pi * radius)
 
     def _BuildTimes(self, reps: list, prev_eta_u, airspeed, wind) -> tuple[float, ...]:
-        """StageTime [s] of each stage of :meth:`_Build` (the same arguments), in order."""
+        """StageTime [s] of each stage of :meth:`_Build` (the same arguments), in order, from the
+        repetitions' geometry without building their stages (the staircase times ~20 values of
+        c1 whose stages nobody flies): the same lengths, the lines' ground speed
+        (:meth:`_LineSpeed`) and the same circles (:meth:`_RepArcs`) timed by the same function,
+        so the same numbers. The wind is a pair of Python floats, already checked."""
+        down, up = self._LineSpeed(1.0, airspeed, wind), self._LineSpeed(-1.0, airspeed, wind)
         times: list[float] = []
-        for k, eta_d, r2, c1 in reps:
-            times.extend(self._RepTimes(k, eta_d, r2, c1, prev_eta_u, airspeed, wind))
+        for _, eta_d, r2, _ in reps:
+            line_d, arc1, line_u, arc2 = self._RepArcs(eta_d, r2, prev_eta_u)
+            times.append(_LineTime(line_d, down))
+            times.append(ArcStartTime(*arc1, airspeed, *wind))
+            times.append(_LineTime(line_u, up))
+            if arc2 is not None:
+                times.append(ArcStartTime(*arc2, airspeed, *wind))
             prev_eta_u = eta_d + 2.0 * self.r1
         return tuple(times)
 
@@ -568,7 +572,9 @@ class ZamboniCoverage(PlanSource):
         return tuple(s for s in self._RestFrom(k, eta_d, c1) if s.index > index)
 
     def _StageTimesAfter(self, index, anchor, c1, airspeed, wind) -> tuple[float, ...]:
-        """The stage times of :meth:`_StagesAfter`, timed per repetition (:meth:`_RepTimes`)."""
+        """The stage times of :meth:`_StagesAfter`, timed per repetition (:meth:`_BuildTimes`);
+        ValueError for a wind that :func:`CheckedWind` refuses, as :func:`StageTime`."""
+        CheckedWind(airspeed, wind)
         k, prim, eta_d, r2k = anchor
         k, prim = int(round(k)), int(round(prim))
         if prim == APPROACH:  # the whole plan but the approach

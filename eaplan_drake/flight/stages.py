@@ -21,6 +21,8 @@ __all__ = [
     "APPROACH",
     "NUM_PRIMITIVES",
     "ArcAngle",
+    "ArcStart",
+    "ArcStartTime",
     "ArcTime",
     "CheckedWind",
     "GroundSpeed",
@@ -254,14 +256,26 @@ def LineSpeed(path: PathFunction, point, airspeed: float, w: np.ndarray) -> floa
 def ArcTime(path: PathFunction, entry, length: float, airspeed: float, w: np.ndarray) -> float:
     """Time [s] to fly ``length`` [m] (> 0) on the circle ``path`` from ``entry`` [m] at
     ``airspeed`` [m/s] in wind ``w`` [m/s] (the circle part of :func:`StageTime`)."""
-    if not w.any():
-        return length / airspeed
+    return ArcStartTime(ArcStart(path, entry), length, airspeed, float(w[0]), float(w[1]))
+
+
+def ArcStart(path: PathFunction, entry) -> tuple[float, float, bool]:
+    """(radius [m], angle [rad] of ``entry`` [m] about the centre, counter-clockwise?) of the
+    circle ``path``: what :func:`ArcTime` needs of the circle and its entry, independent of the
+    wind (a plan may keep it for the arcs it times in many winds)."""
     o = path.center
     ccw = (path.s < 0) == (path.a > 0)
     a0 = math.atan2(entry[1] - o[1], entry[0] - o[0])
-    return _ArcTime(
-        float(length), float(path.radius), a0, ccw, float(airspeed), float(w[0]), float(w[1])
-    )
+    return float(path.radius), a0, ccw
+
+
+def ArcStartTime(start: tuple, length: float, airspeed: float, wx: float, wy: float) -> float:
+    """:func:`ArcTime` of the arc of ``length`` [m] (> 0) that begins at ``start``
+    (:func:`ArcStart`), at ``airspeed`` [m/s] in the wind (wx, wy) [m/s] (Python floats)."""
+    if not (wx or wy):  # still air
+        return length / airspeed
+    radius, a0, ccw = start
+    return _ArcTime(float(length), radius, a0, ccw, float(airspeed), wx, wy)
 
 
 @functools.lru_cache(maxsize=4096)
