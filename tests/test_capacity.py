@@ -21,7 +21,8 @@ from eaplan_drake.planning.capacity import (
     HealthEstimate,
     PlannedPack,
 )
-from eaplan_drake.planning.policies import MpcPolicy, RiskMemory
+from eaplan_drake.planning.margins import RiskMemory
+from eaplan_drake.planning.policies import MpcPolicy
 from eaplan_drake.resolve import ResolveScenario
 from eaplan_drake.simulation import Simulate
 

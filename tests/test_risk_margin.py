@@ -15,7 +15,8 @@ from eaplan_drake.params import (
     PlannerParams,
     VehicleParams,
 )
-from eaplan_drake.planning.policies import MakePolicy, RiskMemory
+from eaplan_drake.planning.margins import RiskMemory
+from eaplan_drake.planning.policies import MakePolicy
 from eaplan_drake.planning.risk import (
     EmpiricalDrops,
     ExcessRiskBounds,

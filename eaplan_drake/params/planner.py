@@ -234,6 +234,12 @@ class PlannerParams(_Params):
     """With ``reserve: risk``, what the mpc does once it sees a SoC drop (its SoC more than 0.01
     below the one-step prediction): ``replan`` (keep deciding with the risk constraint) or
     ``lowest`` (fly the lowest plan to the end: the fallback its excess risk assumes)."""
+    first_budget: str = "half"
+    """With ``reserve: risk``, the excess risk the mpc may spend before its first detected drop:
+    ``half`` (ε/2, the default: with ε/2^(k+1) after k drops the budgets sum to ε on every path)
+    or ``reach`` ((ε/2)(1 + e^(−λτ/2)), λ the rate believed before the flight and τ the longest
+    plan's remaining time at the first step: the later budgets weighed by the chance of reaching
+    them, :func:`~eaplan_drake.planning.risk_margin.FirstDropBudget`; between ε/2 and ε)."""
     capacity: str = "nominal"
     """The pack's usable capacity the mpc plans with: ``nominal`` (its label, the default) or
     ``estimated`` (learnt in flight from the SoC it reads against the fall it predicted,
@@ -351,6 +357,11 @@ class PlannerParams(_Params):
             self.after_drop in ("replan", "lowest"),
             f"{key}.after_drop",
             f'must be "replan" or "lowest", got {self.after_drop!r}',
+        )
+        _check(
+            self.first_budget in ("half", "reach"),
+            f"{key}.first_budget",
+            f'must be "half" or "reach", got {self.first_budget!r}',
         )
         _check(
             self.capacity in PACK_CAPACITY_SOURCES,

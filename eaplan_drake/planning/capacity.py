@@ -90,7 +90,7 @@ def PlannedPack(battery: BatteryParams, health: float) -> BatteryModel:
 
 UNSET = -1.0
 """A planner memory entry nothing has set yet (of :data:`CapacityMemory` and the risk reserve's
-:data:`~eaplan_drake.planning.policies.RiskMemory`: their times, SoCs and falls are ≥ 0)."""
+:data:`~eaplan_drake.planning.margins.RiskMemory`: their times, SoCs and falls are ≥ 0)."""
 
 CapacityMemory = namedview(
     "CapacityMemory", ["last_soc", "nominal_fall", "health", "predicted_fall", "observed_fall"]

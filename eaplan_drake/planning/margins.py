@@ -22,6 +22,7 @@ is built for one planner step (its uncertainty rate z s_b σ_α0 [1/s] is the st
 import math
 
 import numpy as np
+from pydrake.common.containers import namedview
 
 from eaplan_drake.params import MAX_EXPECTED_DROPS, PlannerParams
 from eaplan_drake.planning.belief import PRIOR_DROPS, RateBelief
@@ -33,15 +34,18 @@ from eaplan_drake.planning.risk_margin import (
     ExcessRiskTable,
     ExposureBucket,
     FaultModelFromParams,
+    FirstDropBudget,
     RiskTable,
 )
 
 __all__ = [
+    "LEARNT_SIZES",
     "NEGLIGIBLE_NODE",
     "FixedReserveMargin",
     "FloorMargin",
     "Margin",
     "RiskMargin",
+    "RiskMemory",
     "RiskReserve",
     "StepMargin",
     "TimedReserveMargin",
@@ -53,6 +57,27 @@ NEGLIGIBLE_NODE = 1e-6
 """A rate node of a belief's quadrature with less weight than this [-] is left to the table's
 slack (counted as failure of every plan but the lowest: ≤ 1e-6 more excess risk per node, and
 the high rates' long count tails are not summed)."""
+
+
+LEARNT_SIZES = 4
+"""How many detected drop sizes the mpc's memory keeps for its learnt sizes (``prior_sizes``):
+the first ones of a flight; later drops still halve the budget."""
+
+RiskMemory = namedview(
+    "RiskMemory",
+    ["predicted_soc", "drops", "anchor_end", "anchor_margin"]
+    + [f"size_{i + 1}" for i in range(LEARNT_SIZES)]
+    + ["first_budget"],
+)
+"""The tail of :class:`~eaplan_drake.planning.policies.MpcPolicy`'s memory with ``reserve: risk``
+(after the warm start): ``predicted_soc`` b̂ [-], the SoC the last step predicted for now
+(``UNSET`` before the first step); ``drops``, the drops detected so far; ``anchor_end`` [s], the
+time at which the lowest plan of the state where the current budget opened ends (``UNSET`` until
+a step sets it: at the first step, and after each drop); ``anchor_margin`` m_a [-], that plan's
+fault-free margin; ``size_1`` … the sizes of the first :data:`LEARNT_SIZES` drops [-] (b̂ − b at
+the drop, rounded up to :data:`~eaplan_drake.planning.belief.SIZE_RESOLUTION`; 0 until seen);
+``first_budget`` ε_0 [-] with ``planner.first_budget: reach``, set at the first step
+(:meth:`RiskReserve.FirstBudget`; ``UNSET`` before it, and with ``half``)."""
 
 
 class Margin:
@@ -227,6 +252,14 @@ class RiskReserve:
         self.max_exposure = bucket
         """The longest exposure [s] the risk tables price (λ × it ≤ ``MAX_EXPECTED_DROPS``); a
         plan longer than this cannot be priced and is infeasible."""
+
+    def FirstBudget(self, eps: float, exposure: float) -> float:
+        """ε_0 [-] of ``planner.first_budget: reach`` for the budget ``eps`` ε [-] and the
+        longest plan's remaining time ``exposure`` τ [s]
+        (:func:`~eaplan_drake.planning.risk_margin.FirstDropBudget` at the mean rate believed
+        before the flight: the stated ``rate``, or the belief's mean after the fleet's records)."""
+        rate = self.fault_model.rate if self.rate_belief is None else self.rate_belief.mean
+        return FirstDropBudget(eps, rate, exposure)
 
     def Model(self, observed=()) -> FaultModel:
         """The fault model after the drop sizes ``observed`` [-] detected in flight: the declared

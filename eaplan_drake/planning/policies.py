@@ -38,13 +38,13 @@ import math
 import time
 
 import numpy as np
-from pydrake.common.containers import namedview
 
 from eaplan_drake.energy.computation import ComputationTable
 from eaplan_drake.params import BatteryParams, PlannerParams
 from eaplan_drake.planning.belief import SIZE_RESOLUTION
 from eaplan_drake.planning.capacity import UNSET, InitialPack, ObservePack, PredictPack
 from eaplan_drake.planning.grid_search import DeterminedDecision, MapRelaxed
+from eaplan_drake.planning.margins import LEARNT_SIZES, RiskMemory
 from eaplan_drake.planning.mdp import (
     SEARCH_GRID,
     MdpGrid,
@@ -62,7 +62,6 @@ from eaplan_drake.registry import POLICIES
 
 __all__ = [
     "FALLBACK_DROP",
-    "LEARNT_SIZES",
     "GreedyAuthorsPolicy",
     "GreedyPolicy",
     "MakeGreedyAuthorsPolicy",
@@ -75,7 +74,6 @@ __all__ = [
     "MakeMdpPolicy",
     "MdpPolicy",
     "PaperPolicy",
-    "RiskMemory",
     "StaticPolicy",
     "StaticTakeoffPolicy",
     "MakeStaticTakeoffPolicy",
@@ -315,24 +313,6 @@ is a drop: the policy opens the next, halved, risk budget anchored at that state
 assumes, :mod:`eaplan_drake.planning.risk`)."""
 
 
-LEARNT_SIZES = 4
-"""How many detected drop sizes the mpc's memory keeps for its learnt sizes (``prior_sizes``):
-the first ones of a flight; later drops still halve the budget."""
-
-RiskMemory = namedview(
-    "RiskMemory",
-    ["predicted_soc", "drops", "anchor_end", "anchor_margin"]
-    + [f"size_{i + 1}" for i in range(LEARNT_SIZES)],
-)
-"""The tail of :class:`MpcPolicy`'s memory with ``reserve: risk`` (after the warm start):
-``predicted_soc`` b̂ [-], the SoC the last step predicted for now (``UNSET`` before the first
-step); ``drops``, the drops detected so far; ``anchor_end`` [s], the time at which the lowest plan
-of the state where the current budget opened ends (``UNSET`` until a step sets it: at the
-first step, and after each drop); ``anchor_margin`` m_a [-], that plan's fault-free margin;
-``size_1`` … the sizes of the first :data:`LEARNT_SIZES` drops [-] (b̂ − b at the drop, rounded
-up to :data:`~eaplan_drake.planning.belief.SIZE_RESOLUTION`; 0 until seen)."""
-
-
 class MpcPolicy(PlannerPolicy):
     """The mission-feasible MPC (:mod:`eaplan_drake.planning.mpc`): the NLP relaxation solved with
     IPOPT (iterations bounded, never wall time), mapped exactly onto the grids.
@@ -348,6 +328,7 @@ class MpcPolicy(PlannerPolicy):
         p = problem.params
         self._risk = p.reserve == "risk"
         self._falls_back = self._risk and p.after_drop == "lowest"
+        self._reach = self._risk and p.first_budget == "reach"
         self._budget = float(p.risk) if self._risk else 0.0
         self._warm_size = self.program.variables.size
         self._risk_end = self._warm_size + (len(RiskMemory.Zero()[:]) if self._risk else 0)
@@ -360,7 +341,7 @@ class MpcPolicy(PlannerPolicy):
         if self._risk:
             tail = RiskMemory.Zero()
             tail.predicted_soc, tail.drops, tail.anchor_end = UNSET, 0.0, UNSET
-            tail.anchor_margin = 0.0
+            tail.anchor_margin, tail.first_budget = 0.0, UNSET
             memory = np.concatenate((memory, tail[:]))
         if self._learns_capacity:
             memory = np.concatenate((memory, InitialPack()[:]))
@@ -369,7 +350,9 @@ class MpcPolicy(PlannerPolicy):
 
     def Budget(self, drops: int) -> float:
         """ε_k = ε / 2^(k+1) [-]: the excess risk the policy may spend after k detected drops
-        (``reserve: risk``); summed over any number of drops it is at most ε."""
+        (``reserve: risk``); summed over any number of drops it is at most ε. With
+        ``first_budget: reach`` the budget before the first drop is larger, the one of
+        :meth:`~eaplan_drake.planning.margins.RiskReserve.FirstBudget` (set at the first step)."""
         return self._budget / 2.0 ** (int(drops) + 1)
 
     def Step(self, observation, memory) -> MissionStep:
@@ -406,7 +389,14 @@ class MpcPolicy(PlannerPolicy):
             anchor = (tail.anchor_end - float(o.time), tail.anchor_margin)
         seen = range(1, min(int(tail.drops), LEARNT_SIZES) + 1)
         observed = tuple(float(getattr(tail, f"size_{i}")) for i in seen)
-        step = pb.Step(o, self.Budget(tail.drops), anchor, observed, int(tail.drops), health)
+        budget = self.Budget(tail.drops)
+        if self._reach and tail.drops == 0.0 and o.remaining_time is not None:
+            if tail.first_budget < 0.0:  # the first step: τ, the longest plan's time left
+                tail.first_budget = pb.risk_reserve.FirstBudget(
+                    self._budget, float(np.max(o.remaining_time))
+                )
+            budget = tail.first_budget
+        step = pb.Step(o, budget, anchor, observed, int(tail.drops), health)
         return step, tail, pack
 
     def Plan(self, observation, memory) -> PlannerDecision:

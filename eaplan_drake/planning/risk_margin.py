@@ -67,6 +67,7 @@ __all__ = [
     "ExcessRiskTable",
     "ExposureBucket",
     "FaultModelFromParams",
+    "FirstDropBudget",
     "RiskTable",
 ]
 
@@ -104,6 +105,34 @@ _LAST_TRIAL = np.array([_SEARCH])
 def _Trials(lo: np.ndarray, width: np.ndarray, k) -> np.ndarray:
     """The trial margins lo + width·k/32 [-] of each plan (rows) at the indices k."""
     return lo[:, None] + width[:, None] * k / _SEARCH
+
+
+def FirstDropBudget(eps: float, rate: float, exposure: float) -> float:
+    """ε_0 [-], the budget before the first detected drop that the later budgets
+    ε_k = ε/2^(k+1) (k >= 1) leave when each is weighed by the chance of reaching it
+    (``planner.first_budget: reach``).
+
+    Budget k is spent only in flights that detect k drops, and it bounds the excess risk
+    conditional on getting there, so the mission's excess is at most Σ_k P(N >= k) ε_k, with N the
+    drops of the flight (P(N >= 0) = 1). Keeping ε_k for k >= 1 and asking the sum to be ε::
+
+        ε_0 = ε − Σ_(k>=1) P(N >= k) ε/2^(k+1) = ε − (ε/2) E[1 − 2^(−N)] = (ε/2) (1 + E[2^(−N)]),
+
+    since Σ_(k>=1) P(N >= k) 2^(−k) = E[Σ_(k=1..N) 2^(−k)]. For N ~ Poisson(λτ) over an exposure
+    τ [s] at the rate λ [1/s], E[2^(−N)] = e^(−λτ/2), so ε_0 = (ε/2)(1 + e^(−λτ/2)), between ε/2
+    (many drops expected) and ε (none). Under a Gamma belief over λ the predictive
+    E[e^(−λτ/2)] is at least e^(−λ̄τ/2) at its mean λ̄ (Jensen), so the mean rate gives the
+    smaller, conservative ε_0. τ must bound the flight's remaining exposure (the longest plan's
+    remaining time): a longer flight meets more drops than counted."""
+    eps, rate, exposure = float(eps), float(rate), float(exposure)
+    if not 0.0 < eps < 1.0:
+        raise ValueError(f"eps: must be in (0, 1) [-], got {eps!r}")
+    if not (math.isfinite(rate) and rate >= 0.0):
+        raise ValueError(f"rate: must be finite and >= 0 [1/s], got {rate!r}")
+    if not exposure >= 0.0:  # +inf: as many drops as any flight meets, ε/2
+        raise ValueError(f"exposure: must be >= 0 [s], got {exposure!r}")
+    expected = rate * exposure if rate > 0.0 else 0.0  # λτ (no drops at a rate of 0)
+    return 0.5 * eps * (1.0 + math.exp(-0.5 * expected))
 
 
 def FaultModelFromParams(params: FaultModelParams, scale: float = 1.0) -> FaultModel:
