@@ -318,7 +318,7 @@ class MpcPolicy(PlannerPolicy):
     IPOPT (iterations bounded, never wall time), mapped exactly onto the grids.
 
     Memory: the relaxed solution [c̃1, c̃2] (the next warm start), then, with ``reserve: risk``,
-    the :data:`RiskMemory`."""
+    the :data:`~eaplan_drake.planning.margins.RiskMemory`."""
 
     name = "mpc"
 
@@ -362,9 +362,10 @@ class MpcPolicy(PlannerPolicy):
         return self._Step(observation, memory)[0]
 
     def _Step(self, observation, memory):
-        """(the step, the updated :data:`RiskMemory` or None, the updated
-        :data:`~eaplan_drake.planning.capacity.CapacityMemory` or None). The remaining times are
-        read by steps of the staircase (:func:`~eaplan_drake.planning.mpc.StaircaseSteps`)."""
+        """(the step, the updated :data:`~eaplan_drake.planning.margins.RiskMemory` or None,
+        the updated :data:`~eaplan_drake.planning.capacity.CapacityMemory` or None). The
+        remaining times are read by steps of the staircase
+        (:func:`~eaplan_drake.planning.mpc.StaircaseSteps`)."""
         o, pb = observation, self.problem
         if o.remaining_time is not None:
             steps = StaircaseSteps(o.remaining_time, pb.step_length)
