@@ -54,11 +54,11 @@ if name.startswith("certify"):  # the policy flight of one world that certify dr
     from eaplan_drake.studies.sweep import StudyFlights
     # certify's steady worlds (a tree from before they were certify's default takes no keyword),
     # or its changing ones
-    steady = {"changing": False} if "changing" in inspect.signature(CertifyStudy).parameters else {}
+    kind = {"changing": False} if "changing" in inspect.signature(CertifyStudy).parameters else {}
     if name.startswith("certify-changing:"):
-        steady = {"changing": True}
+        kind = {"changing": True}
     scenario_name, world = name.split(":")[1], int(name.split(":")[2])
-    flights = StudyFlights(CertifyStudy(scenario_name, world + 1, **steady))
+    flights = StudyFlights(CertifyStudy(scenario_name, world + 1, **kind))
     scenario = next(s for k, s in flights if k["world"] == world and k["policy"] != "lowest")
     if json.loads(sys.argv[3]):  # --certify-set: KEY=VALUE assignments on the world's scenario
         from eaplan_drake.loading import LayerScenario, OverrideFromAssignment

@@ -43,7 +43,7 @@ def Pchip(x: np.ndarray, y: np.ndarray, d: np.ndarray, t) -> tuple:
     t = np.asarray(t, dtype=float)
     if x.size == 1:
         return np.full_like(t, y[0]), np.zeros_like(t)
-    tc, i, h, s, value = _PchipValues(x, y, d, t)
+    i, h, s, value = _PchipValues(x, y, d, t)
     dh00, dh10, dh01, dh11 = HermiteBasisSlope(s)
     dh00, dh10, dh01, dh11 = dh00 / h, dh10 / h, dh01 / h, dh11 / h
     slope = dh00 * y[i] + dh10 * h * d[i] + dh01 * y[i + 1] + dh11 * h * d[i + 1]
@@ -62,15 +62,15 @@ def PchipValue(x: np.ndarray, y: np.ndarray, d: np.ndarray, t):
 
 
 def _PchipValues(x, y, d, t):
-    """The clipped t, interval index i, its width h, s in [0, 1] and the value of :func:`Pchip`
-    at the array ``t`` (x.size >= 2)."""
+    """The interval index i, its width h, s in [0, 1] and the value of :func:`Pchip` at the
+    array ``t`` (x.size >= 2)."""
     tc = np.clip(t, x[0], x[-1])
     i = np.clip(np.searchsorted(x, tc, side="right") - 1, 0, x.size - 2)
     h = x[i + 1] - x[i]
     s = (tc - x[i]) / h
     h00, h10, h01, h11 = HermiteBasis(s)
     value = h00 * y[i] + h10 * h * d[i] + h01 * y[i + 1] + h11 * h * d[i + 1]
-    return tc, i, h, s, value
+    return i, h, s, value
 
 
 def _PchipAt(x: np.ndarray, y: np.ndarray, d: np.ndarray, t: float) -> tuple[float, float]:

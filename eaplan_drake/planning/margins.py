@@ -241,7 +241,12 @@ class RiskReserve:
         """K [-], the sizes the declared size model is worth (0: the sizes do not learn)."""
         self.floor = float(planner.margin_floor)
         self._tables: dict = {}
-        rate = self.fault_model.rate if self.rate_belief is None else self.rate_belief.mean
+        self.prior_rate = (
+            self.fault_model.rate if self.rate_belief is None else self.rate_belief.mean
+        )
+        """λ̄ [1/s], the mean rate believed before the flight: the stated ``rate``, or the
+        belief's mean after the fleet's records."""
+        rate = self.prior_rate
         bucket = math.inf
         if rate > 0.0:  # the largest table whose expected drops stay within the risk module's
             bucket = ExposureBucket(0.0)
@@ -256,10 +261,8 @@ class RiskReserve:
     def FirstBudget(self, eps: float, exposure: float) -> float:
         """ε_0 [-] of ``planner.first_budget: reach`` for the budget ``eps`` ε [-] and the
         longest plan's remaining time ``exposure`` τ [s]
-        (:func:`~eaplan_drake.planning.risk_margin.FirstDropBudget` at the mean rate believed
-        before the flight: the stated ``rate``, or the belief's mean after the fleet's records)."""
-        rate = self.fault_model.rate if self.rate_belief is None else self.rate_belief.mean
-        return FirstDropBudget(eps, rate, exposure)
+        (:func:`~eaplan_drake.planning.risk_margin.FirstDropBudget` at :attr:`prior_rate`)."""
+        return FirstDropBudget(eps, self.prior_rate, exposure)
 
     def Model(self, observed=()) -> FaultModel:
         """The fault model after the drop sizes ``observed`` [-] detected in flight: the declared
