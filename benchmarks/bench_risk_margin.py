@@ -10,18 +10,9 @@ CPU of a replay and its CPU a call. Every replayed margin must equal the flown o
 Not a test.
 """
 
-import argparse
-import copy
-import os
-import pickle
-import time
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported: as the CLI flies
+from replay_calls import Main
 
 from eaplan_drake.planning.margins import RiskReserve
-from eaplan_drake.simulation import Simulate
-from eaplan_drake.studies.certify import CertifyStudy
-from eaplan_drake.studies.sweep import StudyFlights
 
 
 def _Bits(margin) -> bytes:
@@ -32,55 +23,9 @@ def _Bits(margin) -> bytes:
     return margin.times.tobytes() + margin.margins.tobytes() + repr(margin.lowest_state).encode()
 
 
-def Record(worlds: int, changing: bool) -> tuple[bytes, list]:
-    """(the pickled reserves by id, the calls (reserve id, arguments, result's bits)) of the
-    policy flights."""
-    calls, reserves = [], {}
-    margin = RiskReserve.Margin
-
-    def Recorded(self, *args, **kwargs):
-        reserves[id(self)] = self
-        args, kwargs = copy.deepcopy(args), copy.deepcopy(kwargs)
-        result = margin(self, *args, **kwargs)
-        calls.append((id(self), args, kwargs, _Bits(result)))
-        return result
-
-    RiskReserve.Margin = Recorded
-    try:
-        for keys, scenario in StudyFlights(CertifyStudy("survey", worlds, changing=changing)):
-            if keys["policy"] != "lowest":
-                Simulate(scenario)
-    finally:
-        RiskReserve.Margin = margin
-    for reserve in reserves.values():
-        reserve._tables = {}  # a replay builds its tables as a flight does
-    return pickle.dumps(reserves), calls
-
-
-def Replay(reserves: bytes, calls: list) -> float:
-    """Process CPU [s] of the calls on fresh reserves; AssertionError if a margin differs."""
-    fresh = pickle.loads(reserves)
-    start = time.process_time()
-    results = [fresh[reserve].Margin(*args, **kwargs) for reserve, args, kwargs, _ in calls]
-    cpu = time.process_time() - start
-    assert [_Bits(r) for r in results] == [bits for *_, bits in calls], "a replayed margin differs"
-    return cpu
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--worlds", type=int, default=8)
-    parser.add_argument("--repeat", type=int, default=5, help="replays (least CPU kept)")
-    parser.add_argument("--steady-worlds", action="store_true")
-    args = parser.parse_args()
-    reserves, calls = Record(args.worlds, changing=not args.steady_worlds)
-    cpu = min(Replay(reserves, calls) for _ in range(max(args.repeat, 1)))
-    kind = "steady" if args.steady_worlds else "changing"
-    print(
-        f"{len(calls)} Margin calls of {args.worlds} {kind} worlds: {cpu:.3f} s CPU, "
-        f"{1e6 * cpu / max(len(calls), 1):.0f} us a call"
-    )
+def _Clean(reserve) -> None:
+    reserve._tables = {}  # a replay builds its tables as a flight does
 
 
 if __name__ == "__main__":
-    main()
+    Main(__doc__.splitlines()[0], RiskReserve, "Margin", key=_Bits, clean=_Clean)
